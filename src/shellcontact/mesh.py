@@ -1,0 +1,221 @@
+"""Triangulations of the parameter domain in arc-length coordinates (x, s), s = a φ.
+
+Structured meshes come from two 1D node distributions (uniform, graded toward points,
+with required node lines), split into triangles by a diagonal pattern. Unstructured
+meshes are read with meshio. Every mesh is a scikit-fem ``MeshTri`` whose element
+columns are sorted (this fixes the orientation of the Argyris edge-normal dofs).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from skfem import MeshTri
+
+from .errors import InputError
+from .geometry import Shell
+
+EDGES = ("x_min", "x_max", "phi_min", "phi_max")
+PATTERNS = ("alternate", "right", "left", "crossed")
+
+
+def graded_nodes(
+    start: float,
+    stop: float,
+    n: int,
+    focus: Sequence[float] = (),
+    ratio: float = 1.0,
+    required: Sequence[float] = (),
+) -> np.ndarray:
+    """About ``n`` intervals on [start, stop]; ``ratio`` > 1 shrinks elements toward ``focus``.
+
+    ``ratio`` is the ratio of the largest to the smallest interval next to a focus point.
+    Points in ``required`` (and the focus points) become nodes.
+    """
+    if n < 1:
+        raise InputError("mesh.n", f"needs at least 1 interval, got {n}")
+    if ratio < 1.0:
+        raise InputError("mesh.grading", f"ratio must be >= 1, got {ratio}")
+    cuts = sorted({start, stop, *[c for c in (*focus, *required) if start < c < stop]})
+    length = stop - start
+    nodes = [np.array([start])]
+    for lo, hi in zip(cuts[:-1], cuts[1:]):
+        k = max(1, int(round(n * (hi - lo) / length)))
+        t = np.linspace(0.0, 1.0, k + 1)
+        near_lo = any(abs(lo - f) < 1e-12 * max(1.0, abs(length)) for f in focus)
+        near_hi = any(abs(hi - f) < 1e-12 * max(1.0, abs(length)) for f in focus)
+        if ratio > 1.0 and (near_lo or near_hi):
+            p = np.log(ratio) / np.log(max(k, 2)) + 1.0  # power law: last/first interval ≈ ratio
+            if near_lo and near_hi:
+                r = 2.0 * t - 1.0
+                t = 0.5 * (1.0 + np.sign(r) * (1.0 - (1.0 - np.abs(r)) ** p))
+            elif near_lo:
+                t = t**p
+            else:
+                t = 1.0 - (1.0 - t) ** p
+        nodes.append(lo + (hi - lo) * t[1:])
+    return np.concatenate(nodes)
+
+
+def _split(nx: int, ny: int, pattern: str) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles of an (nx × ny)-cell grid of nodes (i, j) → i + (nx+1) j; extra centres last."""
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    n00 = i + (nx + 1) * j
+    n10, n01, n11 = n00 + 1, n00 + nx + 1, n00 + nx + 2
+    if pattern == "crossed":
+        c = (nx + 1) * (ny + 1) + np.arange(nx * ny)
+        t = np.hstack([[n00, n10, c], [n10, n11, c], [n11, n01, c], [n01, n00, c]])
+        return t, c
+    if pattern == "right":
+        flip = np.zeros_like(i, dtype=bool)
+    elif pattern == "left":
+        flip = np.ones_like(i, dtype=bool)
+    elif pattern == "alternate":
+        flip = (i + j) % 2 == 1
+    else:
+        raise InputError("mesh.pattern", f"must be one of {PATTERNS}, got {pattern!r}")
+    t1 = np.where(flip, [n00, n10, n01], [n00, n10, n11])
+    t2 = np.where(flip, [n10, n11, n01], [n00, n11, n01])
+    return np.hstack([t1, t2]), np.empty(0, dtype=int)
+
+
+@dataclass
+class ShellMesh:
+    """A triangulation of Ω in (x, s) with the shell it belongs to."""
+
+    shell: Shell
+    mesh: MeshTri
+
+    def __post_init__(self) -> None:
+        p, t = self.mesh.p, np.sort(self.mesh.t, axis=0)
+        self.mesh = MeshTri(np.ascontiguousarray(p, dtype=float), np.ascontiguousarray(t))
+        self._check_domain()
+
+    # -- basic data ------------------------------------------------------------------
+    @property
+    def p(self) -> np.ndarray:
+        return self.mesh.p
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.mesh.t
+
+    @property
+    def nvertices(self) -> int:
+        return self.mesh.p.shape[1]
+
+    @property
+    def nelements(self) -> int:
+        return self.mesh.t.shape[1]
+
+    @property
+    def nfacets(self) -> int:
+        return self.mesh.facets.shape[1]
+
+    def h(self) -> float:
+        """Largest edge length."""
+        f = self.mesh.facets
+        return float(np.max(np.linalg.norm(self.p[:, f[0]] - self.p[:, f[1]], axis=0)))
+
+    def refined(self, times: int = 1) -> ShellMesh:
+        """Nested uniform (red) refinement."""
+        if times < 0:
+            raise InputError("mesh.refine", f"must be >= 0, got {times}")
+        return ShellMesh(self.shell, self.mesh.refined(times) if times else self.mesh)
+
+    def _tol(self) -> float:
+        sh = self.shell
+        return 1e-9 * max(sh.length, sh.s_max - sh.s_min, abs(sh.x_min), abs(sh.s_min), 1.0)
+
+    def _check_domain(self) -> None:
+        sh, p, tol = self.shell, self.mesh.p, self._tol()
+        if np.any(p[0] < sh.x_min - tol) or np.any(p[0] > sh.x_max + tol):
+            raise InputError("mesh", f"mesh x-coordinates leave [{sh.x_min}, {sh.x_max}]")
+        if np.any(p[1] < sh.s_min - tol) or np.any(p[1] > sh.s_max + tol):
+            raise InputError("mesh", f"mesh s-coordinates leave [{sh.s_min}, {sh.s_max}] (s = radius*phi)")
+        area = 0.5 * np.abs(self._det())
+        total = sh.length * (sh.s_max - sh.s_min)
+        if np.any(area < 1e-14 * total):
+            raise InputError("mesh", "mesh has degenerate (zero-area) triangles")
+        if abs(area.sum() - total) > 1e-8 * total:
+            raise InputError("mesh", f"mesh covers area {area.sum():.6g}, the domain has {total:.6g}")
+
+    def _det(self) -> np.ndarray:
+        p, t = self.mesh.p, self.mesh.t
+        d1, d2 = p[:, t[1]] - p[:, t[0]], p[:, t[2]] - p[:, t[0]]
+        return d1[0] * d2[1] - d1[1] * d2[0]
+
+    # -- boundary --------------------------------------------------------------------
+    def edge_vertices(self, edge: str) -> np.ndarray:
+        """Vertices on one edge of the rectangle, ordered along the edge."""
+        sh, p, tol = self.shell, self.mesh.p, self._tol()
+        coord, value = {
+            "x_min": (0, sh.x_min),
+            "x_max": (0, sh.x_max),
+            "phi_min": (1, sh.s_min),
+            "phi_max": (1, sh.s_max),
+        }[edge]
+        ix = np.nonzero(np.abs(p[coord] - value) <= tol)[0]
+        return ix[np.argsort(p[1 - coord, ix])]
+
+    def edge_facets(self, edge: str) -> np.ndarray:
+        on = np.zeros(self.nvertices, dtype=bool)
+        on[self.edge_vertices(edge)] = True
+        f = self.mesh.facets
+        bf = self.mesh.boundary_facets()
+        return bf[on[f[0, bf]] & on[f[1, bf]]]
+
+    def line_facets(self, coord: int, value: float) -> np.ndarray:
+        """Facets lying on the mesh line {x = value} (coord 0) or {s = value} (coord 1)."""
+        p, f = self.mesh.p, self.mesh.facets
+        on = np.abs(p[coord] - value) <= self._tol()
+        return np.nonzero(on[f[0]] & on[f[1]])[0]
+
+
+def structured(
+    shell: Shell,
+    nx: int,
+    nphi: int,
+    pattern: str = "alternate",
+    x_nodes: np.ndarray | None = None,
+    s_nodes: np.ndarray | None = None,
+) -> ShellMesh:
+    """Structured nx × nphi triangulation; explicit node arrays override the uniform ones."""
+    for name, n in (("mesh.nx", nx), ("mesh.nphi", nphi)):
+        if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
+            raise InputError(name, f"must be an integer >= 1, got {n!r}")
+    if pattern not in PATTERNS:
+        raise InputError("mesh.pattern", f"must be one of {', '.join(PATTERNS)}, got {pattern!r}")
+    xs = np.linspace(shell.x_min, shell.x_max, nx + 1) if x_nodes is None else np.asarray(x_nodes, float)
+    ss = np.linspace(shell.s_min, shell.s_max, nphi + 1) if s_nodes is None else np.asarray(s_nodes, float)
+    if shell.full and nphi < 3 and s_nodes is None:
+        raise InputError("mesh.nphi", "a full cylinder needs nphi >= 3")
+    X, S = np.meshgrid(xs, ss, indexing="xy")
+    p = np.vstack([X.ravel(), S.ravel()])
+    t, centres = _split(len(xs) - 1, len(ss) - 1, pattern)
+    if centres.size:
+        q = p[:, t[0, : centres.size]] + p[:, t[2, centres.size : 2 * centres.size]]
+        p = np.hstack([p, 0.5 * q])
+    return ShellMesh(shell, MeshTri(p, t))
+
+
+def from_file(shell: Shell, path: str) -> ShellMesh:
+    """Read a triangulation of Ω in (x, s) coordinates (s = radius·φ, φ in radians) with meshio."""
+    import meshio
+
+    try:
+        m = meshio.read(path)
+    except Exception as exc:  # meshio raises many types for unreadable files
+        raise InputError("mesh.file", f"cannot read mesh file {path!r}: {exc}") from None
+    tris = [c.data for c in m.cells if c.type == "triangle"]
+    if not tris:
+        raise InputError("mesh.file", f"{path!r} contains no 'triangle' cells")
+    t = np.vstack(tris).T
+    used = np.unique(t)
+    renumber = np.full(m.points.shape[0], -1)
+    renumber[used] = np.arange(used.size)
+    p = m.points[used, :2].T
+    return ShellMesh(shell, MeshTri(np.ascontiguousarray(p, float), renumber[t]))
