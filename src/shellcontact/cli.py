@@ -46,9 +46,8 @@ def _info(args: argparse.Namespace) -> int:
     from .linalg import available_backends, default_backend
 
     print(f"shellcontact {__version__}")
-    print(
-        f"python {sys.version.split()[0]}, numpy {numpy.__version__}, scipy {scipy.__version__}, scikit-fem {skfem.__version__}"
-    )
+    print(f"python {sys.version.split()[0]}, numpy {numpy.__version__}, scipy {scipy.__version__}, "
+          f"scikit-fem {skfem.__version__}")
     print(f"linear-algebra backends: {', '.join(available_backends())} (using {default_backend()})")
     print(
         f"cores: {os.cpu_count()}, MKL_NUM_THREADS={os.environ.get('MKL_NUM_THREADS', 'unset')}, "
