@@ -24,8 +24,16 @@ from shellcontact.model import element_chunks, field_derivatives
 from shellcontact.spaces import QUANTITIES, ShellSpace
 from shellcontact.supports import RIGID_MOTIONS, Reduction, Supports
 
-PANEL = Shell(radius=2.0, length=3.0, thickness=0.1, young=1.0, poisson=0.3, alpha=math.radians(-40.0),
-              beta=math.radians(70.0), x_start=-1.0)
+PANEL = Shell(
+    radius=2.0,
+    length=3.0,
+    thickness=0.1,
+    young=1.0,
+    poisson=0.3,
+    alpha=math.radians(-40.0),
+    beta=math.radians(70.0),
+    x_start=-1.0,
+)
 
 
 def _rigid(k: int, shell: Shell):
@@ -78,7 +86,10 @@ def test_rigid_motion_fields_match_the_3d_motion():
         wxx = (local(k, x + h, s)[2] - 2 * ref[2] + local(k, x - h, s)[2]) / h**2
         wss = (local(k, x, s + h)[2] - 2 * ref[2] + local(k, x, s - h)[2]) / h**2
         wxs = (
-            local(k, x + h, s + h)[2] - local(k, x + h, s - h)[2] - local(k, x - h, s + h)[2] + local(k, x - h, s - h)[2]
+            local(k, x + h, s + h)[2]
+            - local(k, x + h, s - h)[2]
+            - local(k, x - h, s + h)[2]
+            + local(k, x - h, s - h)[2]
         ) / (4 * h**2)
         for name, fd in (("w_xx", wxx), ("w_ss", wss), ("w_xs", wxs)):
             assert np.allclose(d[name], fd, atol=1e-5), (RIGID_MOTIONS[k], name)
@@ -184,8 +195,16 @@ def test_supports_that_leave_a_rigid_motion_free_are_rejected(supports, expect):
 def test_diaphragm_roof_with_a_symmetry_plane_is_accepted():
     """Diaphragms at both ends leave only the axial translation free (rejected above); the
     quarter Scordelis–Lo model with u = 0 on its mid-length symmetry plane is accepted."""
-    sh = Shell(radius=25.0, length=25.0, thickness=0.25, young=4.32e8, poisson=0.0,
-               alpha=math.radians(50.0), beta=math.radians(90.0), x_start=0.0)
+    sh = Shell(
+        radius=25.0,
+        length=25.0,
+        thickness=0.25,
+        young=4.32e8,
+        poisson=0.0,
+        alpha=math.radians(50.0),
+        beta=math.radians(90.0),
+        x_start=0.0,
+    )
     space = ShellSpace(structured(sh, 3, 3))
     Reduction.build(space, Supports("symmetry", "simply_supported", "free", "symmetry"))
 
@@ -194,8 +213,9 @@ def test_diaphragm_roof_with_a_symmetry_plane_is_accepted():
 # 2. the bases against scikit-fem
 # ---------------------------------------------------------------------------------------------
 def test_argyris_and_p2_bases_equal_scikit_fem():
-    sh = Shell(radius=1.0, length=1.0, thickness=0.01, young=1.0, poisson=0.3, alpha=0.0,
-               beta=math.radians(40.0), x_start=0.0)
+    sh = Shell(
+        radius=1.0, length=1.0, thickness=0.01, young=1.0, poisson=0.3, alpha=0.0, beta=math.radians(40.0), x_start=0.0
+    )
     m = structured(sh, 2, 2)
     space = ShellSpace(m)
     nel = m.nelements
@@ -240,8 +260,9 @@ def test_argyris_and_p2_bases_equal_scikit_fem():
 # ---------------------------------------------------------------------------------------------
 # 3. manufactured solution under nested refinement
 # ---------------------------------------------------------------------------------------------
-MS_SHELL = Shell(radius=1.5, length=2.0, thickness=0.1, young=1.0, poisson=0.3, alpha=0.0,
-                 beta=math.radians(60.0), x_start=0.0)
+MS_SHELL = Shell(
+    radius=1.5, length=2.0, thickness=0.1, young=1.0, poisson=0.3, alpha=0.0, beta=math.radians(60.0), x_start=0.0
+)
 
 
 def _f1(kind: str, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -346,8 +367,14 @@ def test_manufactured_solution_rates(rates):
 
         en = math.sqrt(model.energy_norm_sq(space, diff) / model.energy_norm_sq(space, _exact_callable(space, exact)))
         rows.append(
-            (m.h(), space.ndofs, _norm(err, "u", 1) / _norm(ref, "u", 1), _norm(err, "v", 1) / _norm(ref, "v", 1),
-             _norm(err, "w", 2) / _norm(ref, "w", 2), en)
+            (
+                m.h(),
+                space.ndofs,
+                _norm(err, "u", 1) / _norm(ref, "u", 1),
+                _norm(err, "v", 1) / _norm(ref, "v", 1),
+                _norm(err, "w", 2) / _norm(ref, "w", 2),
+                en,
+            )
         )
     R = np.array(rows)
     print("\n   h       dofs   |u-uh|_1   rate  |v-vh|_1   rate  |w-wh|_2   rate   energy    rate")
@@ -382,12 +409,16 @@ def test_argyris_bending_alone_converges_at_h4_in_h2(rates):
         Ur[cols] = factorize(Aw).solve(Fw)
         U = red.expand(Ur)
         err, ref = _errors(space, U, exact)
-        rows.append((m.h(), cols.size, _norm(err, "w", 2) / _norm(ref, "w", 2), _norm(err, "w", 1) / _norm(ref, "w", 1)))
+        rows.append(
+            (m.h(), cols.size, _norm(err, "w", 2) / _norm(ref, "w", 2), _norm(err, "w", 1) / _norm(ref, "w", 1))
+        )
     R = np.array(rows)
     r2, r1 = rates(R[:, 0], R[:, 2]), rates(R[:, 0], R[:, 3])
     print("\n   h     w-dofs   |w-wh|_2  rate   |w-wh|_1  rate")
     for i, r in enumerate(R):
-        print(f"{r[0]:.4f} {int(r[1]):7d} {r[2]:10.3e} {r2[i - 1] if i else float('nan'):5.2f} "
-              f"{r[3]:10.3e} {r1[i - 1] if i else float('nan'):5.2f}")
+        print(
+            f"{r[0]:.4f} {int(r[1]):7d} {r[2]:10.3e} {r2[i - 1] if i else float('nan'):5.2f} "
+            f"{r[3]:10.3e} {r1[i - 1] if i else float('nan'):5.2f}"
+        )
     assert r2[-1] > 3.8 and r2[-2] > 3.6, r2
     assert r1[-1] > 4.7, r1
