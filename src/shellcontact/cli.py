@@ -1,8 +1,24 @@
-"""Command line: ``shellcontact run CASE.toml -o DIR``, ``shellcontact info``."""
+"""shellcontact: a thin elastic cylindrical shell pressed by rigid punches (Bock & Lovíšek 1983).
+
+Commands:
+  run          solve one case file; write summary.json, fields.vtu, results.npz, PNG figures, report.html
+  demo         the paper's problem by the penalty, active-set and dual methods, side by side
+  sweep        a load path: one solve per value of a case-file key, one CSV and plots (resumable)
+  convergence  nested mesh refinement: dofs, energy, force/probe value, errors and observed rates
+  verify       the paper's results as numerical checks (pass/fail table)
+  info         versions, linear-algebra backends, threads
+
+Case-file keys can be overridden with --set KEY=VALUE (dotted path, TOML literal value), e.g.
+--set mesh.refine=2 --set punch.0.indentation=2e-3. Exit status: 0 success, 2 bad input,
+3 solver failure (residuals printed), 1 other failures. See docs/getting-started.md.
+"""
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
+import logging
+import os
 import sys
 import time
 from pathlib import Path
@@ -10,76 +26,298 @@ from pathlib import Path
 from . import __version__
 from .errors import InputError, SolverError
 
-EXIT_INPUT, EXIT_SOLVER = 2, 3
+EXIT_OK, EXIT_FAIL, EXIT_INPUT, EXIT_SOLVER = 0, 1, 2, 3
+METHODS = ("dual", "active-set", "penalty")
+
+log = logging.getLogger("shellcontact")
 
 
-def _run(args: argparse.Namespace) -> int:
+# -- console ------------------------------------------------------------------------------------------------
+class Console:
+    """stdout messages (silenced by --quiet) and a progress bar on stderr when it is a terminal."""
+
+    def __init__(self, quiet: bool = False, stream=None) -> None:
+        self.quiet = quiet
+        self.stream = stream or sys.stderr
+        self.bar = (
+            not quiet and hasattr(self.stream, "isatty") and self.stream.isatty() and not os.environ.get("CI")
+        )
+        self._drawn = False
+
+    def print(self, *args) -> None:
+        if not self.quiet:
+            self.clear()
+            print(*args, flush=True)
+
+    def progress(self, done: int, total: int, message: str = "") -> None:
+        """Draw ``[####....] done/total message`` in place (terminals only)."""
+        if not self.bar:
+            return
+        width = 30
+        fill = int(width * done / total) if total else width
+        text = f"\r[{'#' * fill}{'.' * (width - fill)}] {done}/{total} {message}"[:120]
+        self.stream.write(text.ljust(120) if self._drawn else text)
+        self.stream.flush()
+        self._drawn = True
+        if done >= total:
+            self.clear()
+
+    def clear(self) -> None:
+        if self._drawn:
+            self.stream.write("\r" + " " * 120 + "\r")
+            self.stream.flush()
+            self._drawn = False
+
+
+def setup_logging(verbose: int, quiet: bool, log_file: str | None) -> None:
+    log.handlers.clear()
+    log.propagate = False
+    log.setLevel(logging.DEBUG)
+    console = logging.StreamHandler(sys.stderr)
+    console.setLevel(logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)])
+    console.setFormatter(logging.Formatter("%(message)s"))
+    log.addHandler(console)
+    if log_file:
+        try:
+            fh = logging.FileHandler(log_file)
+        except OSError as exc:
+            raise InputError("--log", f"cannot open log file {log_file!r}: {exc.strerror}") from None
+        fh.setLevel(logging.DEBUG)
+        fh.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+        log.addHandler(fh)
+
+
+# -- helpers ------------------------------------------------------------------------------------------------
+def _sets(args: argparse.Namespace) -> list[str]:
+    sets = list(args.set or [])
+    if getattr(args, "method", None):
+        sets.append(f'solver.method="{args.method}"')
+    return sets
+
+
+def _load(args: argparse.Namespace):
+    from .overrides import load_case
+
+    sets = _sets(args)
+    case = load_case(args.case, sets)
+    log.debug("case %s loaded with overrides %s", args.case, sets)
+    return case, sets
+
+
+def _default_dir(case_path: str, suffix: str) -> Path:
+    return Path(f"{Path(case_path).stem}{suffix}")
+
+
+def _print_summary(con: Console, s: dict) -> None:
+    con.print(f"dofs {s['dofs']}  elements {s['elements']}  energy {s['energy']:.6g}  max|w| {s['max_abs_w']:.6g}")
+    for p in s.get("probes", []):
+        con.print(f"probe x={p['x']:g} phi={p['phi']:g}: u={p['u']:.6g} v={p['v']:.6g} w={p['w']:.6g}")
+    contact = s.get("contact")
+    if contact:
+        for i, c in enumerate(contact if isinstance(contact, list) else [contact]):
+            parts = [f"{k} {c[k]:.6g}" for k in ("force_magnitude", "area", "peak_pressure") if
+                     isinstance(c.get(k), (int, float))]
+            con.print(f"punch {i}: " + "  ".join(parts))
+    kkt = s.get("kkt")
+    if isinstance(kkt, dict) and kkt:
+        con.print("KKT residuals: " + "  ".join(f"{k} {v:.3e}" for k, v in kkt.items() if isinstance(v, float)))
+
+
+# -- commands ----------------------------------------------------------------------------------------------
+def cmd_run(args: argparse.Namespace, con: Console) -> int:
     from .analysis import solve
-    from .case import load_case
-    from .io import write_json
+    from .io import check_output_dir, clear_run_files, write_outputs
+
+    case, sets = _load(args)
+    out = Path(args.output) if args.output else _default_dir(args.case, "-out")
+    check_output_dir(out, args.force)
+    if args.force and out.is_dir():
+        clear_run_files(out)
+    t0 = time.perf_counter()
+    result = solve(case)
+    log.info("solved in %.3f s", time.perf_counter() - t0)
+    summary = result.summary()
+    summary["case_file"] = str(args.case)
+    if sets:
+        summary["overrides"] = sets
+    written = write_outputs(result, out, summary, figures=not args.no_figures, report=not args.no_report,
+                            log=log.info)
+    _print_summary(con, summary)
+    con.print(f"wrote {out}/: {', '.join(written)}")
+    return EXIT_OK
+
+
+def _lazy(module: str, func: str, what: str):
+    if importlib.util.find_spec(f"shellcontact.{module}") is None:
+        raise InputError(what, f"not available in this installation (module shellcontact.{module} is missing)")
+    mod = importlib.import_module(f"shellcontact.{module}")
+    return getattr(mod, func)
+
+
+def cmd_demo(args: argparse.Namespace, con: Console) -> int:
+    from .io import check_output_dir
 
     out = Path(args.output)
-    if out.exists() and any(out.iterdir()) and not args.force:
-        raise InputError("--output", f"{str(out)!r} exists and is not empty; use --force to overwrite")
-    case = load_case(args.case)
-    result = solve(case)
-    t0 = time.perf_counter()
-    summary = result.summary()
-    write_json(out / "summary.json", summary)
-    summary["timings"]["output"] = time.perf_counter() - t0
-    summary["timings"]["total"] += summary["timings"]["output"]
-    write_json(out / "summary.json", summary)
-    print(f"dofs {summary['dofs']}  energy {summary['energy']:.6g}  max|w| {summary['max_abs_w']:.6g}")
-    for p in summary["probes"]:
-        print(f"probe x={p['x']:g} phi={p['phi']:g}: u={p['u']:.6g} v={p['v']:.6g} w={p['w']:.6g}")
-    print(f"wrote {out / 'summary.json'}")
-    return 0
+    check_output_dir(out, args.force)
+    run_demo = _lazy("demo", "run_demo", "demo")
+    rc = run_demo(out, args.quiet)
+    return rc if isinstance(rc, int) else EXIT_OK
 
 
-def _info(args: argparse.Namespace) -> int:
-    import os
+def cmd_verify(args: argparse.Namespace, con: Console) -> int:
+    run_verify = _lazy("verify", "run_verify", "verify")
+    rc = run_verify()
+    if isinstance(rc, bool) or rc is None:
+        return EXIT_OK if rc in (True, None) else EXIT_FAIL
+    return int(rc)
 
-    import numpy
-    import scipy
-    import skfem
 
+def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
+    from .io import check_output_dir
+    from .studies import clear_sweep_dir, parse_values, sweep
+
+    values = parse_values(args.values)
+    if args.jobs < 1:
+        raise InputError("--jobs", f"must be >= 1, got {args.jobs}")
+    case, _ = _load(args)
+    out = Path(args.output) if args.output else _default_dir(args.case, "-sweep")
+    if args.force:
+        clear_sweep_dir(out)
+    elif not (out / "sweep.json").is_file():
+        check_output_dir(out, False)  # a non-empty directory that is not a sweep: refuse
+    res = sweep(case, args.param, values, out, jobs=args.jobs, progress=con.progress, figures=not args.no_figures)
+    if res.reused:
+        con.print(f"resumed: {res.reused} of {len(values)} steps were already done")
+    con.print(res.csv().rstrip())
+    con.print(f"wrote {out}/: {', '.join(res.files)}")
+    return EXIT_OK
+
+
+def cmd_convergence(args: argparse.Namespace, con: Console) -> int:
+    from .io import check_output_dir
+    from .studies import convergence, convergence_table
+
+    case, _ = _load(args)
+    out = Path(args.output) if args.output else _default_dir(args.case, "-convergence")
+    check_output_dir(out, args.force)
+    res = convergence(case, args.levels, out, progress=con.progress, figures=not args.no_figures)
+    con.print(convergence_table(res))
+    con.print(f"wrote {out}/: {', '.join(res.files)}")
+    return EXIT_OK
+
+
+def cmd_info(args: argparse.Namespace, con: Console) -> int:
     from .linalg import available_backends, default_backend
+    from .report import versions
 
-    print(f"shellcontact {__version__}")
-    print(f"python {sys.version.split()[0]}, numpy {numpy.__version__}, scipy {scipy.__version__}, "
-          f"scikit-fem {skfem.__version__}")
-    print(f"linear-algebra backends: {', '.join(available_backends())} (using {default_backend()})")
-    print(
-        f"cores: {os.cpu_count()}, MKL_NUM_THREADS={os.environ.get('MKL_NUM_THREADS', 'unset')}, "
-        f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}"
-    )
-    return 0
+    v = versions()
+    con.print(f"shellcontact {__version__}")
+    con.print("  ".join(f"{k} {val}" for k, val in v.items() if k not in ("shellcontact", "platform")))
+    con.print(f"platform: {v['platform']}")
+    con.print(f"linear-algebra backends: {', '.join(available_backends())} (using {default_backend()})")
+    env = ", ".join(f"{k}={os.environ.get(k, 'unset')}" for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS",
+                                                                   "OPENBLAS_NUM_THREADS"))
+    con.print(f"cores: {os.cpu_count()}, {env}")
+    return EXIT_OK
+
+
+# -- parser ----------------------------------------------------------------------------------------------
+def _common(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("output control")
+    g.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    g.add_argument("-v", "--verbose", action="count", default=0, help="more messages (-vv: debug)")
+    g.add_argument("--log", metavar="FILE", help="also write a detailed log to FILE")
+
+
+def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
+    p.add_argument("case", help="TOML case file (keys: docs/case-file.md)")
+    p.add_argument("-o", "--output", metavar="DIR", help=out_help)
+    p.add_argument("--method", choices=METHODS, help="contact solver; same as --set solver.method=...")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a case-file key by dotted path, VALUE a TOML literal "
+                   "(e.g. --set mesh.refine=2 --set punch.0.indentation=2e-3); repeatable")
+    p.add_argument("--force", action="store_true", help="overwrite an existing non-empty output directory")
+    p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="shellcontact", description=__doc__)
+    p = argparse.ArgumentParser(prog="shellcontact", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--version", action="version", version=f"shellcontact {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="solve one case file and write DIR/summary.json")
-    r.add_argument("case", help="TOML case file (see docs/case-file.md)")
-    r.add_argument("-o", "--output", default="out", help="output directory (default: out)")
-    r.add_argument("--force", action="store_true", help="overwrite a non-empty output directory")
-    r.set_defaults(func=_run)
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    r = sub.add_parser("run", help="solve one case file and write the run directory",
+                       description="Solve one case and write DIR/summary.json, fields.vtu (ParaView), results.npz, "
+                       "deflection/deformed (and, with contact, pressure) PNG figures and report.html.")
+    _case_args(r, "output directory (default: <case name>-out)")
+    r.add_argument("--no-report", action="store_true", help="skip report.html")
+    _common(r)
+    r.set_defaults(func=cmd_run)
+
+    d = sub.add_parser("demo", help="the paper's problem by three methods, side by side",
+                       description="A clamped cylindrical panel pressed by a spherical punch, solved by the "
+                       "penalty, active-set and dual methods; prints a table and writes DIR.")
+    d.add_argument("-o", "--output", metavar="DIR", default="demo-out", help="output directory (default: demo-out)")
+    d.add_argument("--force", action="store_true", help="overwrite an existing non-empty output directory")
+    _common(d)
+    d.set_defaults(func=cmd_demo)
+
+    s = sub.add_parser("sweep", help="one solve per parameter value: CSV and plots (resumable)",
+                       description="A load path: solve the case for each value of a case-file key. Writes "
+                       "DIR/sweep.csv (parameter, energy, max|w|, probe w, and with contact force, area, peak "
+                       "pressure), sweep.png, force_indentation.png. Finished steps are recorded in DIR/steps/; "
+                       "running the same command again resumes without recomputing them.")
+    _case_args(s, "output directory (default: <case name>-sweep)")
+    s.add_argument("--param", required=True, metavar="KEY", help="case-file key to vary, e.g. punch.0.indentation")
+    s.add_argument("--values", required=True, metavar="SPEC",
+                   help="start:stop:count (ends included, e.g. 0:5e-3:11) or a comma list (1e-3,2e-3)")
+    s.add_argument("--jobs", type=int, default=1, metavar="N", help="solve N steps in parallel processes")
+    _common(s)
+    s.set_defaults(func=cmd_sweep)
+
+    c = sub.add_parser("convergence", help="nested mesh refinement: errors and observed rates",
+                       description="Solve with mesh.refine = r0, r0+1, ..., r0+L-1 (r0 the case's value); "
+                       "print and write DIR/convergence.csv (dofs, h, energy, force or probe value, errors "
+                       "against the finest level, observed rates), convergence.json and convergence.png.")
+    _case_args(c, "output directory (default: <case name>-convergence)")
+    c.add_argument("--levels", type=int, default=4, metavar="L", help="number of refinement levels (default 4)")
+    _common(c)
+    c.set_defaults(func=cmd_convergence)
+
+    v = sub.add_parser("verify", help="the paper's results as numerical checks (pass/fail table)")
+    _common(v)
+    v.set_defaults(func=cmd_verify)
+
     i = sub.add_parser("info", help="versions, linear-algebra backends, threads")
-    i.set_defaults(func=_info)
+    _common(i)
+    i.set_defaults(func=cmd_info)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    con = Console(quiet=args.quiet)
     try:
-        return args.func(args)
+        setup_logging(args.verbose, args.quiet, args.log)
+        return args.func(args, con)
     except InputError as exc:
+        con.clear()
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except SolverError as exc:
+        con.clear()
         print(f"solver failed: {exc}", file=sys.stderr)
+        for k, v in exc.residuals.items():
+            print(f"  {k:<20} {v:.3e}", file=sys.stderr)
         return EXIT_SOLVER
+    except KeyboardInterrupt:
+        con.clear()
+        print("interrupted", file=sys.stderr)
+        return 130
+    except OSError as exc:
+        con.clear()
+        print(f"error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_INPUT
 
 
 if __name__ == "__main__":

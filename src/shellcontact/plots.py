@@ -1,0 +1,308 @@
+"""Figures (matplotlib, no display needed): deflection map, deformed 3D shell, contact pressure.
+
+Every ``plot_*`` function takes a ``Result`` (or study rows), returns a
+``matplotlib.figure.Figure`` (or ``None`` when the data it needs is absent, e.g. no contact) and,
+given ``path``, also writes a PNG atomically. Figures are built without pyplot, so they work
+headless and never touch the user's backend. Maps are drawn over (x, φ in degrees).
+"""
+
+from __future__ import annotations
+
+import io as _io
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.tri import Triangulation
+
+from .io import atomic_write_bytes, contact_vertex_fields
+
+DPI = 110
+
+
+def png_bytes(fig: Figure) -> bytes:
+    buf = _io.BytesIO()
+    fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
+    return buf.getvalue()
+
+
+def save_png(fig: Figure, path: str | Path) -> Path:
+    """Write ``fig`` as PNG atomically."""
+    atomic_write_bytes(path, png_bytes(fig))
+    return Path(path)
+
+
+def _finish(fig: Figure, path: str | Path | None) -> Figure:
+    if path is not None:
+        save_png(fig, path)
+    return fig
+
+
+# -- helpers ------------------------------------------------------------------------------------------
+def evaluation_grid(result, quantity: str = "w", max_points: int = 30000) -> tuple[Triangulation, np.ndarray]:
+    """``quantity`` on the vertices of a uniformly refined copy of the mesh (at most ~max_points),
+    evaluated with the finite-element basis (not linear interpolation), over (x, φ°)."""
+    sol = result.solution
+    m = sol.space.mesh.mesh
+    level = 0
+    while level < 3 and m.p.shape[1] * 4 ** (level + 1) <= max_points:
+        level += 1
+    r = m.refined(level) if level else m
+    x, s = r.p
+    vals = sol.evaluate(x, s / sol.shell.radius, (quantity,))[quantity]
+    return Triangulation(x, np.degrees(s / sol.shell.radius), r.t.T), vals
+
+
+def exaggeration(result, fraction: float = 0.1) -> float:
+    """A round factor that makes the largest displacement ``fraction`` of min(radius, length)."""
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    dmax = float(np.max(np.linalg.norm(sol.displacement(x, s / sol.shell.radius), axis=0)))
+    if not np.isfinite(dmax) or dmax <= 0:
+        return 1.0
+    raw = fraction * min(sol.shell.radius, sol.shell.length) / dmax
+    e = 10.0 ** math.floor(math.log10(raw))
+    return max(m * e for m in (1, 2, 5, 10) if m * e <= raw * (1 + 1e-12)) if raw >= 1 else 1.0
+
+
+def _probes(ax, result) -> None:
+    pr = getattr(result.case, "probes", [])
+    if pr:
+        pts = np.array(pr, float)
+        ax.plot(pts[:, 0], np.degrees(pts[:, 1]), "k+", ms=9, mew=1.5, label="probes")
+
+
+def _fmt(v: float) -> str:
+    return f"{v:.4g}"
+
+
+# -- run figures -----------------------------------------------------------------------------------------
+def plot_deflection(result, path: str | Path | None = None) -> Figure:
+    """Map of the deflection w (outward positive) over (x, φ°)."""
+    tri, w = evaluation_grid(result, "w")
+    fig = Figure(figsize=(6.4, 4.6))
+    ax = fig.add_subplot()
+    levels = 21 if np.ptp(w) > 0 else 1
+    cs = ax.tricontourf(tri, w, levels=levels, cmap="viridis")
+    fig.colorbar(cs, ax=ax, label="w (outward positive)")
+    _probes(ax, result)
+    i = int(np.argmax(np.abs(w)))
+    ax.set_title(f"deflection w: max |w| = {_fmt(abs(w[i]))} at x = {_fmt(tri.x[i])}, φ = {_fmt(tri.y[i])}°")
+    ax.set_xlabel("x")
+    ax.set_ylabel("φ (degrees)")
+    return _finish(fig, path)
+
+
+def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, label: str, fig: Figure) -> None:
+    from matplotlib import cm, colors
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    face = values[t].mean(axis=1)
+    lo, hi = float(np.min(face)), float(np.max(face))
+    norm = colors.Normalize(lo, hi if hi > lo else lo + 1.0)
+    mapper = cm.ScalarMappable(norm=norm, cmap=cmap)
+    poly = Poly3DCollection(pts[t], facecolors=mapper.to_rgba(face), edgecolors="none", linewidths=0)
+    ax.add_collection3d(poly)
+    lo3, hi3 = pts.min(axis=0), pts.max(axis=0)
+    span = np.maximum(hi3 - lo3, 0.05 * float(np.max(hi3 - lo3)))  # true proportions, no flat axis
+    ctr = 0.5 * (lo3 + hi3)
+    for k, setter in enumerate((ax.set_xlim, ax.set_ylim, ax.set_zlim)):
+        setter(ctr[k] - 0.5 * span[k], ctr[k] + 0.5 * span[k])
+    ax.set_box_aspect(tuple(span / span.max()))
+    ax.set_xlabel("X")
+    ax.set_ylabel("Y")
+    ax.set_zlabel("Z")
+    fig.colorbar(mapper, ax=ax, shrink=0.6, label=label)
+
+
+def plot_deformed(result, path: str | Path | None = None, scale: float | None = None) -> Figure:
+    """3D view of the deformed middle surface coloured by w (and by contact pressure when present);
+    displacements are multiplied by ``scale`` (default: ``exaggeration(result)``), shown in the title."""
+    sol = result.solution
+    scale = exaggeration(result) if scale is None else float(scale)
+    pts = sol.deformed_vertices(scale).T
+    t = sol.space.mesh.t.T
+    x, s = sol.space.mesh.p
+    w = sol.evaluate(x, s / sol.shell.radius, ("w",))["w"]
+    pressure = contact_vertex_fields(result).get("contact_pressure")
+    panels = [("w", w, "viridis")] + ([("contact pressure", pressure, "inferno")] if pressure is not None else [])
+    fig = Figure(figsize=(6.0 * len(panels), 5.2))
+    for k, (label, vals, cmap) in enumerate(panels):
+        ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
+        _surface(ax, pts, t, np.asarray(vals, float), cmap, label, fig)
+        ax.view_init(elev=25, azim=-60)
+        ax.set_title(f"deformed shell coloured by {label}\ndisplacements × {scale:g}")
+    return _finish(fig, path)
+
+
+def _contact_box(fields: dict[str, np.ndarray], x: np.ndarray, phi: np.ndarray):
+    status = fields.get("contact_status")
+    cand = status >= 0 if status is not None else np.ones(x.size, bool)
+    if not np.any(cand):
+        cand = np.ones(x.size, bool)
+    xr, pr = (float(x[cand].min()), float(x[cand].max())), (float(phi[cand].min()), float(phi[cand].max()))
+    px, pp = 0.05 * (xr[1] - xr[0] or 1.0), 0.05 * (pr[1] - pr[0] or 1.0)
+    return (xr[0] - px, xr[1] + px), (pr[0] - pp, pr[1] + pp)
+
+
+def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
+    """Contact-pressure map over the candidate zone, with the contact boundary drawn (None without contact)."""
+    fields = contact_vertex_fields(result)
+    p = fields.get("contact_pressure")
+    if p is None:
+        return None
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    phi = np.degrees(s / sol.shell.radius)
+    tri = Triangulation(x, phi, sol.space.mesh.t.T)
+    fig = Figure(figsize=(6.4, 4.8))
+    ax = fig.add_subplot()
+    p = np.asarray(p, float)
+    levels = 21 if np.ptp(p) > 0 else 1
+    cs = ax.tricontourf(tri, p, levels=levels, cmap="inferno")
+    fig.colorbar(cs, ax=ax, label="contact pressure Λ/ω")
+    status = fields.get("contact_status")
+    if status is not None and np.any(status == 1) and np.any(status != 1):
+        ax.tricontour(tri, (np.asarray(status) == 1).astype(float), levels=[0.5], colors="c", linewidths=1.5)
+        ax.plot([], [], "c-", label="contact boundary")
+        act = np.asarray(status) == 1
+        ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
+        ax.legend(loc="upper right", fontsize=8)
+    xr, pr = _contact_box(fields, x, phi)
+    ax.set_xlim(*xr)
+    ax.set_ylim(*pr)
+    ax.set_title(f"contact pressure: peak {_fmt(float(np.max(p)))}")
+    ax.set_xlabel("x")
+    ax.set_ylabel("φ (degrees)")
+    return _finish(fig, path)
+
+
+def pressure_lines(result) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
+    """Nodal pressures along the mesh lines x = x* and φ = φ* through the peak-pressure vertex."""
+    fields = contact_vertex_fields(result)
+    p = fields.get("contact_pressure")
+    if p is None or not np.any(np.asarray(p) > 0):
+        return None
+    p = np.asarray(p, float)
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    phi = np.degrees(s / sol.shell.radius)
+    i = int(np.argmax(p))
+    tol = 1e-9 * max(sol.shell.length, s.max() - s.min())
+    on_x = np.nonzero(np.abs(x - x[i]) <= tol)[0]
+    on_s = np.nonzero(np.abs(s - s[i]) <= tol)[0]
+    on_x, on_s = on_x[np.argsort(phi[on_x])], on_s[np.argsort(x[on_s])]
+    return {
+        f"x = {_fmt(x[i])}": (phi[on_x], p[on_x]),
+        f"φ = {_fmt(phi[i])}°": (x[on_s], p[on_s]),
+    }
+
+
+def plot_pressure_profiles(result, path: str | Path | None = None) -> Figure | None:
+    """Pressure along the two mesh lines through the peak (None without contact pressure)."""
+    lines = pressure_lines(result)
+    if lines is None:
+        return None
+    fig = Figure(figsize=(10, 4))
+    for k, (label, (c, p)) in enumerate(lines.items()):
+        ax = fig.add_subplot(1, 2, k + 1)
+        ax.plot(c, p, "o-", ms=3)
+        ax.set_xlabel("φ (degrees)" if label.startswith("x") else "x")
+        ax.set_ylabel("nodal pressure Λ/ω")
+        ax.set_title(f"along {label}")
+        ax.grid(True, alpha=0.3)
+    return _finish(fig, path)
+
+
+def run_figures(result, fields: dict[str, np.ndarray] | None = None) -> dict[str, bytes]:
+    """All figures of one run as PNG bytes, by file name (contact figures only with contact)."""
+    out = {"deflection.png": plot_deflection(result), "deformed.png": plot_deformed(result)}
+    for name, fn in (("pressure.png", plot_pressure), ("pressure_profiles.png", plot_pressure_profiles)):
+        fig = fn(result)
+        if fig is not None:
+            out[name] = fig
+    return {k: png_bytes(f) for k, f in out.items()}
+
+
+# -- study figures -------------------------------------------------------------------------------------
+SWEEP_PANELS = (
+    ("force", "contact force |F|"),
+    ("area", "contact area"),
+    ("peak_pressure", "peak pressure"),
+    ("energy", "strain energy"),
+    ("max_abs_w", "max |w|"),
+)
+
+
+def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None) -> Figure:
+    """Each result column (force, area, peak pressure, energy, max|w|; per punch) against the parameter."""
+    xs = np.array([r[param] for r in rows], float)
+    panels = []
+    for key, label in SWEEP_PANELS:
+        cols = [c for c in rows[0] if c == key or c.startswith(key + "_")] if rows else []
+        cols = [c for c in cols if not (key == "force" and c.startswith("force_"))] or cols
+        cols = [c for c in cols if all(isinstance(r.get(c), (int, float)) for r in rows)]
+        if cols:
+            panels.append((label, cols))
+    n = len(panels)
+    ncol = min(n, 3)
+    nrow = math.ceil(n / ncol)
+    fig = Figure(figsize=(4.4 * ncol, 3.5 * nrow))
+    for k, (label, cols) in enumerate(panels):
+        ax = fig.add_subplot(nrow, ncol, k + 1)
+        for c in cols:
+            ax.plot(xs, [r[c] for r in rows], "o-", ms=4, label=c)
+        if len(cols) > 1:
+            ax.legend(fontsize=8)
+        ax.set_xlabel(param)
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(f"sweep over {param}")
+    return _finish(fig, path)
+
+
+def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None) -> Figure | None:
+    """Contact force against the swept parameter (None when the rows have no force column)."""
+    cols = [c for c in (rows[0] if rows else {}) if c == "force" or (c.startswith("force_") and c[6:].isdigit())]
+    if not cols:
+        return None
+    fig = Figure(figsize=(6, 4.5))
+    ax = fig.add_subplot()
+    xs = np.array([r[param] for r in rows], float)
+    for c in cols:
+        ax.plot(xs, [r[c] for r in rows], "o-", label=c)
+    ax.set_xlabel(param)
+    ax.set_ylabel("contact force |F| on the shell")
+    ax.set_title("force–indentation" if "indentation" in param else f"force against {param}")
+    ax.grid(True, alpha=0.3)
+    if len(cols) > 1:
+        ax.legend()
+    return _finish(fig, path)
+
+
+def plot_convergence(rows: Sequence[dict[str, Any]], path: str | Path | None = None) -> Figure:
+    """Log–log errors against the finest level versus h (levels except the finest)."""
+    fig = Figure(figsize=(6, 4.5))
+    ax = fig.add_subplot()
+    rows = [r for r in rows if r.get("h") is not None]
+    cols = [c for c in (rows[0] if rows else {}) if c.startswith("error_")]
+    for c in cols:
+        pts = [(r["h"], r[c]) for r in rows if isinstance(r.get(c), float) and r[c] > 0]
+        if pts:
+            h, e = np.array(pts).T
+            ax.loglog(h, e, "o-", label=c.removeprefix("error_"))
+    if len(rows) >= 2:
+        h = np.array([r["h"] for r in rows])
+        for order, style in ((2, ":"), (4, "--")):
+            ref = [r for r in rows if isinstance(r.get(cols[0] if cols else ""), float)]
+            if ref and ref[0][cols[0]] > 0:
+                ax.loglog(h, ref[0][cols[0]] * (h / h[0]) ** order, "k" + style, lw=0.8, label=f"O(h^{order})")
+    ax.set_xlabel("h (largest edge in (x, s))")
+    ax.set_ylabel("relative error against the finest level")
+    ax.set_title("convergence under nested refinement")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    return _finish(fig, path)
