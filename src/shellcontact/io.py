@@ -148,8 +148,11 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
             ("contact_force", ("forces", "nodal_forces", "Lambda")),
         ):
             for a in attrs:
-                if getattr(c, a, None) is not None:
-                    raw[name] = getattr(c, a)
+                v = getattr(c, a, None)
+                if callable(v):
+                    v = v()  # e.g. ContactSolution.gap()
+                if v is not None:
+                    raw[name] = v
                     break
     idx = getattr(c, "vertices", None)
     out: dict[str, np.ndarray] = {}

@@ -10,6 +10,7 @@ validated exactly like a case file, so unknown keys and bad values get the usual
 from __future__ import annotations
 
 import copy
+import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping
@@ -19,7 +20,7 @@ from typing import Any
 from .case import Case, MeshSpec, case_from_dict
 from .errors import InputError
 
-_BARE = re.compile(r"^[A-Za-z_][A-Za-z0-9_\-]*$")
+_BARE = re.compile(r"^[^\s\[\]{}\"'=,#]+$")  # a word or a path: taken as a string
 _SEGMENT = re.compile(r"^([A-Za-z_][A-Za-z0-9_\-]*|\d+)$")
 
 
@@ -28,7 +29,7 @@ def parse_value(text: str, where: str = "--set") -> Any:
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
-        if _BARE.match(text) and text not in ("true", "false"):
+        if _BARE.match(text) and not text[0].isdigit() and text[0] not in "+-.":
             return text
         raise InputError(
             where, f"value {text!r} is not a TOML literal (e.g. 2e-3, true, \"dual\", [0, 0, -1])"
@@ -89,6 +90,10 @@ def apply_overrides(data: dict[str, Any], assignments: Mapping[str, Any] | Itera
                     node[part] = value
                 else:
                     if part not in node:
+                        if parts[depth + 1].isdigit():
+                            raise InputError(
+                                f"--set {key}", f"{here!r} has no entries: add [[{here}]] tables to the case file"
+                            )
                         node[part] = {}
                     node = node[part]
             else:
@@ -102,9 +107,23 @@ def case_from_raw(data: dict[str, Any], source: str | Path | None = None) -> Cas
     """Validate a raw case dictionary; a relative ``mesh.file`` is resolved against ``source``."""
     source = Path(source) if source is not None else None
     case = case_from_dict(data, source=source)
+    _check_probes(case)
     if source is not None and case.mesh.file and not Path(case.mesh.file).is_absolute():
         case.mesh = MeshSpec(**{**case.mesh.__dict__, "file": str(source.parent / case.mesh.file)})
     return case
+
+
+def _check_probes(case: Case) -> None:
+    """Probes must lie on the shell (named by their key, before any assembly)."""
+    sh = case.shell
+    tol = 1e-9 * max(sh.length, sh.radius)
+    for i, (x, phi) in enumerate(case.probes):
+        if not sh.x_min - tol <= x <= sh.x_max + tol:
+            raise InputError(f"probes.{i}.x", f"must lie in [{sh.x_min:.6g}, {sh.x_max:.6g}], got {x:.6g}")
+        if not sh.full and not sh.alpha - tol / sh.radius <= phi <= sh.beta + tol / sh.radius:
+            lo, hi = math.degrees(sh.alpha), math.degrees(sh.beta)
+            got = math.degrees(phi)
+            raise InputError(f"probes.{i}.phi", f"must lie in [{lo:.6g}, {hi:.6g}] degrees, got {got:.6g}")
 
 
 def read_case_dict(path: str | Path) -> dict[str, Any]:
