@@ -550,7 +550,7 @@ def _touch_travel(punch: Punch, shell: Shell, body_Z, where: str) -> float:
         )
     from scipy.optimize import brentq
 
-    return float(brentq(lambda t: f(t)[0], min(ta, tb), max(ta, tb), xtol=tol, rtol=4e-16, maxiter=200))
+    return float(brentq(lambda t: f(t)[0], min(ta, tb), max(ta, tb), xtol=tol, rtol=1e-15, maxiter=200))
 
 
 def _automatic_zone(punch: Punch, shell: Shell, gap: float, n: int = 201) -> Zone | None:
