@@ -1,0 +1,175 @@
+"""The command line, run as a subprocess: run, sweep (resumable, parallel), convergence, info, --help.
+
+Small cases: the Scordelis–Lo roof on 4 × 4 (run, sweep) or 2 × 2 (convergence) cells.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+CASE = str(ROOT / "examples" / "scordelis_lo.toml")
+SMALL = ["--set", "mesh.nx=4", "--set", "mesh.nphi=4"]
+ENV = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+SWEEP = ["sweep", CASE, *SMALL, "--param", "shell.thickness", "--values", "0.2:0.3:3", "--no-figures"]
+
+
+def cli(*args: str, cwd: Path, check: bool = True) -> subprocess.CompletedProcess:
+    r = subprocess.run([sys.executable, "-m", "shellcontact.cli", *args], cwd=cwd, env=ENV, capture_output=True,
+                       text=True, timeout=300)
+    if check:
+        assert r.returncode == 0, r.stderr
+        assert "Traceback" not in r.stderr
+    return r
+
+
+def test_help_documents_every_command(tmp_path: Path) -> None:
+    r = cli("--help", cwd=tmp_path)
+    for cmd in ("run", "demo", "sweep", "convergence", "verify", "info", "--set", "Exit status"):
+        assert cmd in r.stdout, cmd
+    for cmd, opts in {
+        "run": ("--output", "--method", "--set", "--force", "--quiet", "--verbose", "--log"),
+        "sweep": ("--param", "--values", "--jobs", "start:stop:count", "resum"),
+        "convergence": ("--levels",),
+        "demo": ("--output",),
+    }.items():
+        h = cli(cmd, "--help", cwd=tmp_path).stdout
+        for o in opts:
+            assert o in h, (cmd, o)
+
+
+def test_run_summary_and_overrides(tmp_path: Path) -> None:
+    r = cli("run", CASE, "-o", "out", *SMALL, "--method", "dual", "--log", "run.log", cwd=tmp_path)
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    for key in ("dofs", "elements", "energy", "max_abs_w", "probes", "timings"):
+        assert key in s
+    assert s["elements"] == 2 * 4 * 4  # --set mesh.nx=4 --set mesh.nphi=4 took effect
+    assert set(s["timings"]) >= {"mesh", "assembly", "factorization", "solve", "output", "total"}
+    assert s["timings"]["output"] > 0
+    assert s["overrides"] == ["mesh.nx=4", "mesh.nphi=4", 'solver.method="dual"']
+    p = s["probes"][0]
+    assert set(p) >= {"x", "phi", "u", "v", "w", "displacement"} and (p["x"], p["phi"]) == (0.0, 50.0)
+    assert f"{s['energy']:.6g}" in r.stdout and "wrote out/" in r.stdout
+    assert "wrote" in (tmp_path / "run.log").read_text()
+
+    # the same case through the Python API gives the same numbers
+    from shellcontact import solve
+    from shellcontact.overrides import load_case
+
+    ref = solve(load_case(CASE, ["mesh.nx=4", "mesh.nphi=4"])).summary()
+    assert s["dofs"] == ref["dofs"]
+    assert s["energy"] == pytest.approx(ref["energy"], rel=1e-12)
+    assert p["w"] == pytest.approx(ref["probes"][0]["w"], rel=1e-12)
+
+
+def test_run_quiet_force_and_default_dir(tmp_path: Path) -> None:
+    r = cli("run", CASE, *SMALL, "-q", "--no-figures", "--no-report", cwd=tmp_path)
+    assert r.stdout == "" and r.stderr == ""
+    out = tmp_path / "scordelis_lo-out"
+    assert (out / "summary.json").is_file() and not (out / "report.html").exists()
+    stale = out / "pressure.png"
+    stale.write_bytes(b"old")
+    assert cli("run", CASE, *SMALL, "-q", "--no-figures", cwd=tmp_path, check=False).returncode == 2
+    cli("run", CASE, *SMALL, "-q", "--no-figures", "--force", cwd=tmp_path)
+    assert not stale.exists()  # --force removes what an earlier run wrote
+    assert (out / "report.html").is_file()
+    assert not list(out.glob(".*.tmp"))  # no temporary files left behind
+
+
+def _csv(path: Path) -> str:
+    return path.read_text()
+
+
+def test_sweep_csv_and_plots(tmp_path: Path) -> None:
+    r = cli("sweep", CASE, *SMALL, "--param", "shell.thickness", "--values", "0.2,0.25,0.3", "-o", "sw", cwd=tmp_path)
+    lines = _csv(tmp_path / "sw" / "sweep.csv").splitlines()
+    assert lines[0].split(",")[:4] == ["shell.thickness", "dofs", "energy", "max_abs_w"]
+    assert len(lines) == 4 and [ln.split(",")[0] for ln in lines[1:]] == ["0.2", "0.25", "0.3"]
+    energy = [float(ln.split(",")[2]) for ln in lines[1:]]
+    assert energy[0] > energy[1] > energy[2]  # a thicker roof stores less energy under its own load
+    assert (tmp_path / "sw" / "sweep.png").stat().st_size > 1000
+    assert "shell.thickness" in r.stdout
+    # the middle step equals a single run with the same thickness
+    cli("run", CASE, *SMALL, "--set", "shell.thickness=0.25", "-o", "one", "--no-figures", "--no-report",
+        cwd=tmp_path)
+    s = json.loads((tmp_path / "one" / "summary.json").read_text())
+    assert energy[1] == pytest.approx(s["energy"], rel=1e-12)
+
+
+def test_sweep_resumes_after_lost_step_and_parallel_agrees(tmp_path: Path) -> None:
+    cli(*SWEEP, "-o", "full", cwd=tmp_path)
+    reference = _csv(tmp_path / "full" / "sweep.csv")
+    # simulate an interruption: one step record and the final CSV are missing
+    (tmp_path / "full" / "steps" / "step-0001.json").unlink()
+    (tmp_path / "full" / "sweep.csv").unlink()
+    r = cli(*SWEEP, "-o", "full", cwd=tmp_path)
+    assert "resumed: 2 of 3 steps were already done" in r.stdout
+    assert _csv(tmp_path / "full" / "sweep.csv") == reference
+    # completed steps are not recomputed: their records are untouched
+    t = (tmp_path / "full" / "steps" / "step-0000.json").stat().st_mtime_ns
+    cli(*SWEEP, "-o", "full", cwd=tmp_path)
+    assert (tmp_path / "full" / "steps" / "step-0000.json").stat().st_mtime_ns == t
+    # parallel processes give the same CSV
+    cli(*SWEEP, "-o", "par", "--jobs", "2", cwd=tmp_path)
+    assert _csv(tmp_path / "par" / "sweep.csv") == reference
+
+
+def test_sweep_killed_then_resumed(tmp_path: Path) -> None:
+    values = "0.2:0.3:6"
+    args = ["sweep", CASE, *SMALL, "--param", "shell.thickness", "--values", values, "--no-figures"]
+    cli(*args, "-o", "ref", cwd=tmp_path)
+    reference = _csv(tmp_path / "ref" / "sweep.csv")
+    proc = subprocess.Popen([sys.executable, "-m", "shellcontact.cli", *args, "-o", "cut"], cwd=tmp_path, env=ENV,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    first = tmp_path / "cut" / "steps" / "step-0000.json"
+    deadline = time.monotonic() + 120
+    while not first.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    done = len(list((tmp_path / "cut" / "steps").glob("step-*.json")))
+    assert done >= 1
+    r = cli(*args, "-o", "cut", cwd=tmp_path)
+    if done < 6:
+        assert f"resumed: {done} of 6 steps" in r.stdout
+    assert _csv(tmp_path / "cut" / "sweep.csv") == reference
+
+
+def test_sweep_refuses_foreign_directory(tmp_path: Path) -> None:
+    (tmp_path / "busy").mkdir()
+    (tmp_path / "busy" / "notes.txt").write_text("x")
+    r = cli(*SWEEP, "-o", "busy", cwd=tmp_path, check=False)
+    assert r.returncode == 2 and "use --force" in r.stderr
+    assert (tmp_path / "busy" / "notes.txt").exists()
+
+
+def test_convergence(tmp_path: Path) -> None:
+    r = cli("convergence", CASE, "--set", "mesh.nx=2", "--set", "mesh.nphi=2", "--levels", "3", "-o", "cv",
+            cwd=tmp_path)
+    rows = json.loads((tmp_path / "cv" / "convergence.json").read_text())["rows"]
+    assert [row["refine"] for row in rows] == [0, 1, 2]
+    assert rows[0]["dofs"] < rows[1]["dofs"] < rows[2]["dofs"]
+    assert rows[1]["h"] == pytest.approx(rows[0]["h"] / 2, rel=1e-12)  # nested red refinement
+    assert rows[0]["error_energy"] > rows[1]["error_energy"] > 0 and rows[2]["error_energy"] is None
+    assert rows[1]["rate_energy"] == pytest.approx(
+        __import__("math").log2(rows[0]["error_energy"] / rows[1]["error_energy"]), rel=1e-12
+    )
+    assert "probe0_w" in rows[0] and "error_probe0_w" in rows[0]
+    header = (tmp_path / "cv" / "convergence.csv").read_text().splitlines()[0]
+    assert header.startswith("level,refine,vertices,elements,dofs,h,energy,probe0_w,error_energy")
+    assert (tmp_path / "cv" / "convergence.png").stat().st_size > 1000
+    assert "err energy" in r.stdout and f"{rows[2]['energy']:.6g}" in r.stdout
+
+
+def test_info(tmp_path: Path) -> None:
+    r = cli("info", cwd=tmp_path)
+    assert "shellcontact" in r.stdout and "linear-algebra backends" in r.stdout and "numpy" in r.stdout
+    assert "OMP_NUM_THREADS=1" in r.stdout
