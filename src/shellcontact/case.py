@@ -226,6 +226,16 @@ def parse_loads(d: dict) -> Loads:
     )
 
 
+def _check_inside(shell: Shell, where: str, x: float, phi: float) -> None:
+    """A probe or point load must lie on the shell (x in [x_min, x_max], phi in [alpha, beta])."""
+    tol = 1e-9 * max(shell.length, 1.0)
+    if not shell.x_min - tol <= x <= shell.x_max + tol:
+        raise InputError(f"{where}.x", f"{x:.6g} lies outside [{shell.x_min:.6g}, {shell.x_max:.6g}]")
+    if not shell.alpha - 1e-9 <= phi <= shell.beta + 1e-9:
+        lo, hi, deg = math.degrees(shell.alpha), math.degrees(shell.beta), math.degrees(phi)
+        raise InputError(f"{where}.phi", f"{deg:.6g} deg lies outside [{lo:.6g}, {hi:.6g}] deg")
+
+
 def case_from_dict(data: dict, source: Path | None = None) -> Case:
     """Validate a case given as a (TOML-shaped) dictionary."""
     _unknown("", data, SCHEMA)
@@ -246,12 +256,15 @@ def case_from_dict(data: dict, source: Path | None = None) -> Case:
     )
     if shell.full and not supports.periodic:
         raise InputError("supports.phi_min", "a full cylinder needs phi_min = phi_max = 'periodic'")
+    if supports.periodic and not shell.full:
+        raise InputError("supports.phi_min", "'periodic' needs a full cylinder (shell.full = true)")
     probes = []
     for i, p in enumerate(data.get("probes", [])):
         if not isinstance(p, dict):
             raise InputError(f"probes.{i}", "must be a table {x, phi}")
         _unknown(f"probes.{i}", p, SCHEMA["probes"])
         probes.append((number(p, "x", f"probes.{i}"), math.radians(number(p, "phi", f"probes.{i}"))))
+        _check_inside(shell, f"probes.{i}", *probes[-1])
     solver = data.get("solver", {})
     if not isinstance(solver, dict):
         raise InputError("solver", "must be a table")
@@ -259,11 +272,14 @@ def case_from_dict(data: dict, source: Path | None = None) -> Case:
     punches = data.get("punch", [])
     if not isinstance(punches, list):
         raise InputError("punch", "must be an array of tables [[punch]]")
+    loads = parse_loads(data.get("loads", {}))
+    for i, pt in enumerate(loads.points):
+        _check_inside(shell, f"loads.point.{i}", pt.x, pt.phi)
     return Case(
         shell=shell,
         supports=supports,
         mesh=parse_mesh(data.get("mesh", {})),
-        loads=parse_loads(data.get("loads", {})),
+        loads=loads,
         probes=probes,
         solver=dict(solver),
         punches=[dict(p) for p in punches],
