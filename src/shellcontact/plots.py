@@ -115,7 +115,7 @@ def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, 
     ax.set_xlabel("X")
     ax.set_ylabel("Y")
     ax.set_zlabel("Z")
-    fig.colorbar(mapper, ax=ax, shrink=0.6, label=label)
+    fig.colorbar(mapper, ax=ax, shrink=0.6, pad=0.12, label=label)
 
 
 def plot_deformed(result, path: str | Path | None = None, scale: float | None = None) -> Figure:
@@ -128,11 +128,15 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
     x, s = sol.space.mesh.p
     w = sol.evaluate(x, s / sol.shell.radius, ("w",))["w"]
     pressure = contact_vertex_fields(result).get("contact_pressure")
+    ref = sol.deformed_vertices(0.0)
+    edges = [sol.space.mesh.edge_vertices(e) for e in ("x_min", "x_max", "phi_min", "phi_max")]
     panels = [("w", w, "viridis")] + ([("contact pressure", pressure, "inferno")] if pressure is not None else [])
     fig = Figure(figsize=(6.0 * len(panels), 5.2))
     for k, (label, vals, cmap) in enumerate(panels):
         ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
         _surface(ax, pts, t, np.asarray(vals, float), cmap, label, fig)
+        for k, edge in enumerate(edges):  # the undeformed boundary, for reference
+            ax.plot(*ref[:, edge], color="0.4", lw=0.8, ls="--", label="undeformed edge" if k == 0 else None)
         ax.view_init(elev=25, azim=-60)
         ax.set_title(f"deformed shell coloured by {label}\ndisplacements × {scale:g}")
     return _finish(fig, path)

@@ -1,0 +1,183 @@
+"""The run directory: summary.json, fields.vtu (meshio), results.npz, PNG figures, report.html.
+
+One subprocess run of the Scordelis–Lo roof on 4 × 4 cells is checked file by file. The contact
+outputs (arrays, pressure figures, report tables) are checked in-process by attaching a contact
+object with prescribed per-vertex arrays to a solved Result: this tests the plumbing from
+``result.contact`` to the files, not the contact mechanics.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import meshio
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+CASE = ROOT / "examples" / "scordelis_lo.toml"
+SETS = ["mesh.nx=4", "mesh.nphi=4"]
+ENV = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+PNG = b"\x89PNG\r\n\x1a\n"
+VERTEX_ARRAYS = {"x", "phi_deg", "u", "v", "w", "displacement", "deformed", "N11", "N22", "N12", "M11", "M22", "M12"}
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory) -> Path:
+    cwd = tmp_path_factory.mktemp("run")
+    args = [sys.executable, "-m", "shellcontact.cli", "run", str(CASE), "-o", "out"]
+    for s in SETS:
+        args += ["--set", s]
+    r = subprocess.run(args, cwd=cwd, env=ENV, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return cwd / "out"
+
+
+@pytest.fixture(scope="module")
+def summary(run_dir: Path) -> dict:
+    return json.loads((run_dir / "summary.json").read_text())
+
+
+def test_run_directory_files(run_dir: Path) -> None:
+    names = {p.name for p in run_dir.iterdir()}
+    assert names == {"summary.json", "fields.vtu", "results.npz", "deflection.png", "deformed.png", "report.html"}
+
+
+def test_vtu_fields(run_dir: Path, summary: dict) -> None:
+    m = meshio.read(run_dir / "fields.vtu")
+    assert VERTEX_ARRAYS <= set(m.point_data)
+    nv = summary["vertices"]
+    assert m.points.shape == (nv, 3)
+    tri = m.cells_dict["triangle"]
+    assert tri.shape == (summary["elements"], 3)
+    # points are the reference middle surface: on the cylinder of radius 25 around the x-axis
+    assert np.allclose(np.hypot(m.points[:, 1], m.points[:, 2]), 25.0, rtol=1e-12)
+    d = m.point_data
+    assert d["displacement"].shape == (nv, 3) and d["deformed"].shape == (nv, 3)
+    assert np.allclose(d["deformed"], m.points + d["displacement"], rtol=0, atol=1e-12)
+    assert np.max(np.abs(d["w"])) == pytest.approx(summary["max_abs_w"], rel=1e-12)
+    # the probe at (x, phi) = (0, 50 deg) is a vertex: its arrays match summary.json
+    p = summary["probes"][0]
+    i = int(np.argmin(np.hypot(d["x"] - p["x"], d["phi_deg"] - p["phi"])))
+    assert (d["u"][i], d["v"][i], d["w"][i]) == pytest.approx((p["u"], p["v"], p["w"]), rel=1e-10, abs=1e-14)
+    assert d["displacement"][i] == pytest.approx(p["displacement"], rel=1e-10, abs=1e-14)
+    # the local-to-global rotation: radial component of the displacement is w
+    phi = np.radians(d["phi_deg"])
+    radial = d["displacement"][:, 1] * np.cos(phi) + d["displacement"][:, 2] * np.sin(phi)
+    assert np.allclose(radial, d["w"], rtol=0, atol=1e-12 * np.max(np.abs(d["w"])))
+    assert not any(k.startswith("contact") or k == "gap" for k in d)  # no contact, no contact arrays
+
+
+def test_npz(run_dir: Path, summary: dict) -> None:
+    z = np.load(run_dir / "results.npz")
+    assert z["U"].shape == (summary["dofs"],)
+    assert z["p"].shape == (2, summary["vertices"]) and z["t"].shape == (3, summary["elements"])
+    assert float(z["radius"]) == 25.0
+    assert np.max(np.abs(z["w"])) == pytest.approx(summary["max_abs_w"], rel=1e-12)
+
+
+def test_pngs(run_dir: Path) -> None:
+    for name in ("deflection.png", "deformed.png"):
+        data = (run_dir / name).read_bytes()
+        assert data.startswith(PNG) and len(data) > 5000, name
+
+
+def test_report_contains_summary_numbers(run_dir: Path, summary: dict) -> None:
+    text = (run_dir / "report.html").read_text()
+    assert text.startswith("<!DOCTYPE html>") and text.rstrip().endswith("</html>")
+    numbers = [summary["energy"], summary["max_abs_w"], summary["timings"]["total"],
+               *(summary["probes"][0][k] for k in ("u", "v", "w"))]
+    for v in numbers:
+        assert f">{v:.6g}<" in text, v  # in a table cell
+    assert f">{summary['dofs']}<" in text
+    # the verbatim summary.json is embedded
+    pre = re.search(r"<pre>(.*?)</pre>", text, re.S)
+    assert pre and json.loads(html.unescape(pre.group(1))) == summary
+    # self-contained: figures are embedded, nothing is loaded from elsewhere
+    imgs = re.findall(r'src="data:image/png;base64,([^"]+)"', text)
+    assert len(imgs) == 2 and all(base64.b64decode(b).startswith(PNG) for b in imgs)
+    assert "http://" not in text and "https://" not in text
+    # inputs with the --set overrides marked
+    assert "mesh.nx</span> (--set)" in text and "shell.radius" in text
+
+
+# -- contact plumbing (prescribed arrays on a solved result) ------------------------------------------------
+@pytest.fixture(scope="module")
+def contact_result():
+    from shellcontact import solve
+    from shellcontact.overrides import load_case
+
+    result = solve(load_case(CASE, SETS))
+    x, s = result.solution.space.mesh.p
+    phi = np.degrees(s / 25.0)
+    cand = np.nonzero((x <= 12.5) & (phi >= 70.0))[0]  # candidate vertices
+    r2 = (x[cand] / 12.5) ** 2 + ((phi[cand] - 90.0) / 20.0) ** 2
+    pressure = np.maximum(0.0, 1.0 - r2) * 1e3
+    active = pressure > 0
+    contact = SimpleNamespace(
+        vertices=cand,
+        active=active,
+        pressure=pressure,
+        Lambda=pressure * 2.0,
+        gap=lambda: np.where(active, 0.0, r2 - 1.0),  # a method, as on ContactSolution
+    )
+    result.contact = contact
+    return result, cand, pressure
+
+
+def test_contact_arrays_in_vtu_and_npz(tmp_path: Path, contact_result) -> None:
+    from shellcontact.io import write_npz, write_vtu
+
+    result, cand, pressure = contact_result
+    nv = result.solution.space.mesh.nvertices
+    write_vtu(result, tmp_path / "f.vtu")
+    d = meshio.read(tmp_path / "f.vtu").point_data
+    status = np.full(nv, -1)
+    status[cand] = pressure > 0
+    assert np.array_equal(d["contact_status"], status)
+    full = np.zeros(nv)
+    full[cand] = pressure
+    assert np.array_equal(d["contact_pressure"], full)
+    assert np.isnan(d["gap"]).sum() == nv - cand.size  # gap unknown off the candidate set: NaN, not 0
+    assert np.array_equal(d["contact_force"][cand], 2.0 * pressure)
+    write_npz(result, tmp_path / "r.npz")
+    z = np.load(tmp_path / "r.npz")
+    assert np.array_equal(z["contact_pressure"], full) and np.array_equal(z["contact_vertices"], cand)
+
+
+def test_contact_figures_and_report(tmp_path: Path, contact_result) -> None:
+    from shellcontact.io import write_outputs
+
+    result, _, _ = contact_result
+    summary = result.summary()
+    summary["contact"] = [{"active_vertices": 7, "area": 12.3456789, "force": [0.0, 0.0, -4.5], "force_magnitude": 4.5,
+                           "total_normal_force": 4.75, "peak_pressure": 987.654321, "punch_travel": None}]
+    summary["kkt"] = {"stationarity": 1.234e-13, "penetration": 0.0, "dual_feasibility": 0.0,
+                      "complementarity": 5.5e-15, "duality_gap": 2.2e-16}
+    written = write_outputs(result, tmp_path / "out", summary)
+    for name in ("pressure.png", "pressure_profiles.png", "deformed.png"):
+        assert name in written and written[name].read_bytes().startswith(PNG)
+    text = (tmp_path / "out" / "report.html").read_text()
+    for v in (12.3456789, 987.654321, 1.234e-13, 5.5e-15):
+        assert f">{v:.6g}<" in text
+    assert "KKT residuals" in text and "Contact" in text
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["contact"][0]["area"] == 12.3456789
+
+
+def test_pressure_lines_pass_through_peak(contact_result) -> None:
+    from shellcontact.plots import pressure_lines
+
+    result, cand, pressure = contact_result
+    lines = pressure_lines(result)
+    assert lines is not None and len(lines) == 2
+    peak = float(np.max(pressure))
+    for _, (_, p) in lines.items():
+        assert float(np.max(p)) == peak
