@@ -26,8 +26,8 @@ def test_quick_start_is_make_demo_and_make_test() -> None:
 
 def dry_run(target: str, tmp_path: Path) -> list[str]:
     venv = tmp_path / "fresh-venv"  # does not exist: what a fresh clone would do
-    r = subprocess.run(["make", "-n", "-C", str(ROOT), f"VENV={venv}", target], capture_output=True, text=True,
-                       timeout=60)
+    r = subprocess.run(["make", "-n", "--no-print-directory", f"VENV={venv}", target], cwd=ROOT, capture_output=True,
+                       text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     return r.stdout.splitlines()
 
