@@ -4,6 +4,7 @@ CI (.ci/run) runs ``make test`` verbatim."""
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 from pathlib import Path
@@ -26,8 +27,9 @@ def test_quick_start_is_make_demo_and_make_test() -> None:
 
 def dry_run(target: str, tmp_path: Path) -> list[str]:
     venv = tmp_path / "fresh-venv"  # does not exist: what a fresh clone would do
-    r = subprocess.run(["make", "-n", "--no-print-directory", f"VENV={venv}", target], cwd=ROOT, capture_output=True,
-                       text=True, timeout=60)
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MAKELEVEL", "MFLAGS")}
+    cmd = ["make", "-n", "--no-print-directory", f"VENV={venv}", target]
+    r = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     return r.stdout.splitlines()
 
