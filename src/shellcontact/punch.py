@@ -64,7 +64,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import InputError
-from .geometry import Shell
+from .geometry import Shell, frame
 
 SHAPES = ("sphere", "cylinder", "plane", "ellipsoid", "torus", "custom")
 COMMON_KEYS = {"shape", "inverted", "side", "direction", "indentation", "force", "zone"}
@@ -553,8 +553,23 @@ def _touch_travel(punch: Punch, shell: Shell, body_Z, where: str) -> float:
     return float(brentq(lambda t: f(t)[0], min(ta, tb), max(ta, tb), xtol=tol, rtol=1e-15, maxiter=200))
 
 
+def _edge(h: Callable[[float], float], inside: float, outside: float) -> float:
+    """The boundary of {h < 0} between a grid point inside and one outside (conservative fallback)."""
+    from scipy.optimize import brentq
+
+    if h(outside) <= 0.0:
+        return outside
+    return float(brentq(h, inside, outside, xtol=1e-14 * max(1.0, abs(inside)), rtol=1e-15))
+
+
 def _automatic_zone(punch: Punch, shell: Shell, gap: float, n: int = 201) -> Zone | None:
-    """Bounding box (x, φ) of {Z < gap} on the contact surface, one cell wider; None if empty."""
+    """Bounding box (x, φ) of {Z < gap} on the contact surface; None if empty.
+
+    The set is found on a grid of about n × n points; each edge of its bounding box is then
+    located by root finding on min_φ Z(x, ·) − gap (resp. min_x Z(·, φ) − gap), so that symmetric
+    configurations give symmetric zones. Edges within 2 % of a shell edge (or of the seam of a full
+    cylinder) are moved onto it, so that no thin strip of elements appears.
+    """
     nx, nphi = _grid_counts(shell, (shell.x_min, shell.x_max), (shell.alpha, shell.beta), n)
     xs = np.linspace(shell.x_min, shell.x_max, nx)
     ps = np.linspace(shell.alpha, shell.beta, nphi)
@@ -562,46 +577,115 @@ def _automatic_zone(punch: Punch, shell: Shell, gap: float, n: int = 201) -> Zon
     Zv = punch.Z(contact_surface(shell, X.ravel(), P.ravel(), punch.side_sign))[0].reshape(X.shape)
     mask = Zv < gap
     fx, fp = punch.first_contact
-    if not np.any(mask) and not (punch.min_gap < gap and math.isfinite(fx)):
+    if math.isfinite(fx) and punch.min_gap < gap:  # the cell of the deepest point
+        mask[int(np.argmin(np.abs(xs - fx))), int(np.argmin(np.abs(ps - fp)))] = True
+    if not np.any(mask):
         return None
-    xin = X[mask]
-    pin = P[mask]
-    if math.isfinite(fx) and punch.min_gap < gap:
-        xin, pin = np.append(xin, fx), np.append(pin, fp)
-    dx, dp = xs[1] - xs[0], ps[1] - ps[0]
-    x0, x1 = max(shell.x_min, xin.min() - dx), min(shell.x_max, xin.max() + dx)
+    side = punch.side_sign
+    whole_x = (shell.x_min, shell.x_max)
+
+    def h_x(x: float) -> float:
+        z = Zone((x, x), ((shell.alpha, shell.beta),))
+        return surface_minimum(lambda M: punch.Z(M)[0], shell, side, z, levels=4)[0] - gap
+
+    def h_p(phi: float) -> float:
+        phi = shell.alpha + (phi - shell.alpha) % (2 * math.pi) if shell.full else phi
+        z = Zone(whole_x, ((phi, phi),))
+        return surface_minimum(lambda M: punch.Z(M)[0], shell, side, z, levels=4)[0] - gap
+
+    mx = np.nonzero(mask.any(axis=1))[0]
+    i0, i1 = int(mx[0]), int(mx[-1])
+    x0 = shell.x_min if i0 == 0 else _edge(h_x, xs[i0], xs[i0 - 1])
+    x1 = shell.x_max if i1 == nx - 1 else _edge(h_x, xs[i1], xs[i1 + 1])
     snap_x = ZONE_SNAP * shell.length
-    if x0 - shell.x_min < snap_x:
-        x0 = shell.x_min
-    if shell.x_max - x1 < snap_x:
-        x1 = shell.x_max
-    span = shell.beta - shell.alpha
-    snap_p = ZONE_SNAP * span
-    if shell.full:
-        u = np.unique(np.mod(pin - shell.alpha, 2 * math.pi))
-        gaps = np.diff(np.append(u, u[0] + 2 * math.pi))
-        k = int(np.argmax(gaps))
-        if gaps[k] <= 2.5 * dp:  # the whole circumference
-            return Zone((float(x0), float(x1)), ((shell.alpha, shell.beta),), True, gap)
-        # the largest empty arc runs from u[k] to u[k+1]; the covered arc from u[k+1] around to u[k]
-        lo = u[(k + 1) % u.size] - dp
-        hi = u[k] + dp + (2 * math.pi if k + 1 < u.size else 0.0)
-        if lo < 0:
-            lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
-        if hi - lo >= 2 * math.pi - 2 * snap_p:
-            return Zone((float(x0), float(x1)), ((shell.alpha, shell.beta),), True, gap)
-        lo, hi = float(shell.alpha + lo), float(shell.alpha + hi)
-        if hi <= shell.beta:
-            phis = ((lo, hi),)
-        else:
-            phis = ((shell.alpha, hi - 2 * math.pi), (lo, shell.beta))
-        return Zone((float(x0), float(x1)), phis, True, gap)
-    p0, p1 = max(shell.alpha, pin.min() - dp), min(shell.beta, pin.max() + dp)
-    if p0 - shell.alpha < snap_p:
-        p0 = shell.alpha
-    if shell.beta - p1 < snap_p:
-        p1 = shell.beta
-    return Zone((float(x0), float(x1)), ((float(p0), float(p1)),), True, gap)
+    x0 = shell.x_min if x0 - shell.x_min < snap_x else x0
+    x1 = shell.x_max if shell.x_max - x1 < snap_x else x1
+    xr = (float(x0), float(x1))
+    snap_p = ZONE_SNAP * (shell.beta - shell.alpha)
+    dp = ps[1] - ps[0]
+    mp = mask.any(axis=0)
+    if not shell.full:
+        j = np.nonzero(mp)[0]
+        j0, j1 = int(j[0]), int(j[-1])
+        p0 = shell.alpha if j0 == 0 else _edge(h_p, ps[j0], ps[j0 - 1])
+        p1 = shell.beta if j1 == nphi - 1 else _edge(h_p, ps[j1], ps[j1 + 1])
+        p0 = shell.alpha if p0 - shell.alpha < snap_p else p0
+        p1 = shell.beta if shell.beta - p1 < snap_p else p1
+        return Zone(xr, ((float(p0), float(p1)),), True, gap)
+    cov = mp[:-1] | (mp[-1] & (np.arange(nphi - 1) == 0))  # periodic: ps[-1] is ps[0]
+    m = cov.size
+    if cov.all():
+        return Zone(xr, ((shell.alpha, shell.beta),), True, gap)
+    # the longest run of uncovered samples; the covered arc runs from just after it to just before it
+    free = ~cov
+    best_len, best_end, run = 0, 0, 0
+    for k in range(2 * m):
+        run = run + 1 if free[k % m] else 0
+        if run > best_len:
+            best_len, best_end = run, k
+    j_lo = (best_end + 1) % m  # first covered index after the gap
+    j_hi = (best_end - best_len) % m  # last covered index before the gap
+    lo = shell.alpha + j_lo * dp
+    hi = shell.alpha + j_hi * dp
+    if hi < lo:
+        hi += 2 * math.pi
+    lo = _edge(h_p, lo, lo - dp)
+    hi = _edge(h_p, hi, hi + dp)
+    if lo < shell.alpha:
+        lo, hi = lo + 2 * math.pi, hi + 2 * math.pi
+    if hi - lo >= 2 * math.pi - 2 * snap_p:
+        return Zone(xr, ((shell.alpha, shell.beta),), True, gap)
+    if lo - shell.alpha < snap_p:
+        lo = shell.alpha
+    elif shell.beta - lo < snap_p:
+        lo, hi = shell.alpha, hi - 2 * math.pi
+    if abs(hi - shell.beta) < snap_p or (hi > shell.beta and hi - 2 * math.pi - shell.alpha < snap_p):
+        hi = shell.beta
+    lo, hi = float(lo), float(hi)
+    if hi <= shell.beta:
+        return Zone(xr, ((lo, hi),), True, gap)
+    return Zone(xr, ((shell.alpha, hi - 2 * math.pi), (lo, shell.beta)), True, gap)
+
+
+def _polish_minimum(punch: Punch, shell: Shell, x: float, phi: float, width: float) -> tuple[float, float, float]:
+    """Refine the grid minimiser of Z on the contact surface by zeroing ∂Z/∂x and ∂Z/∂φ in turn."""
+    from scipy.optimize import brentq
+
+    a, side = shell.radius, punch.side_sign
+
+    def dZ(xv: float, pv: float, coord: int) -> float:
+        x1, p1 = np.array([xv]), np.array([pv])
+        M = contact_surface(shell, x1, p1, side)
+        g = punch.Z(M)[1][:, 0]
+        e1, e2, n = (v[:, 0] for v in frame(p1))
+        h = 1e-6 * max(shell.length, a)
+        if coord == 0:
+            dzeta = (punch.zeta(shell, x1 + h, p1) - punch.zeta(shell, x1 - h, p1))[0] / (2 * h)
+            return float(g @ (e1 + dzeta * n))
+        dzeta = (punch.zeta(shell, x1, p1 + h / a) - punch.zeta(shell, x1, p1 - h / a))[0] / (2 * h / a)
+        zeta = punch.zeta(shell, x1, p1)[0]
+        return float(g @ ((a + zeta) * e2 + dzeta * n))
+
+    prange = next(((p0, p1) for p0, p1 in punch.zone.phi if p0 <= phi <= p1), (phi, phi))
+    lims = ((punch.zone.x[0], punch.zone.x[1]), prange)
+    widths = (width * max(shell.length, 1e-300), width * (shell.beta - shell.alpha))
+    c = [x, phi]
+    for _ in range(2):
+        for k in (0, 1):
+            lo, hi = max(lims[k][0], c[k] - widths[k]), min(lims[k][1], c[k] + widths[k])
+            if not lo < hi:
+                continue
+
+            def f(v: float, k: int = k) -> float:
+                cc = list(c)
+                cc[k] = v
+                return dZ(cc[0], cc[1], k)
+
+            flo, fhi = f(lo), f(hi)
+            if flo < 0.0 < fhi:
+                c[k] = float(brentq(f, lo, hi, xtol=1e-15 * max(1.0, abs(c[k])), rtol=1e-15))
+    M = contact_surface(shell, np.array([c[0]]), np.array([c[1]]), side)
+    return float(punch.Z(M)[0][0]), c[0], c[1]
 
 
 def punch_from_dict(d: dict, shell: Shell, index: int = 0) -> Punch:
@@ -670,6 +754,9 @@ def punch_from_dict(d: dict, shell: Shell, index: int = 0) -> Punch:
         punch.offset = travel * direction
         punch.center = center + punch.offset
     zmin, xm, pm = surface_minimum(lambda M: punch.Z(M)[0], shell, punch.side_sign, punch.zone)
+    zp, xp, pp = _polish_minimum(punch, shell, xm, pm, 1e-4)
+    if zp <= zmin:
+        zmin, xm, pm = zp, xp, pp
     punch.min_gap, punch.first_contact = zmin, (xm, pm)
     punch.overlap = max(0.0, -zmin)
     # overlap larger than the shell can take
