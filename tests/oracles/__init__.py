@@ -1,0 +1,1 @@
+"""Independent test oracles (numpy/scipy only; they must not import shellcontact's model code)."""
