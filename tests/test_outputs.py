@@ -181,3 +181,32 @@ def test_pressure_lines_pass_through_peak(contact_result) -> None:
     peak = float(np.max(pressure))
     for _, (_, p) in lines.items():
         assert float(np.max(p)) == peak
+
+
+def test_contact_vertex_arrays_gather_operator_rows() -> None:
+    """Row values of a real contact operator (paper's panel) gathered on the mesh vertices keep
+    their sums: Σ contact_force = Σ Λ, Σ contact_force_vector = the punch resultant Σ Λ_i ∇Z_i."""
+    from shellcontact.case import build_mesh
+    from shellcontact.contact import contact_operator
+    from shellcontact.io import contact_vertex_arrays
+    from shellcontact.overrides import load_case
+    from shellcontact.punch import fitted_lines, punches_from_case
+    from shellcontact.spaces import ShellSpace
+
+    case = load_case(ROOT / "examples" / "paper_panel.toml", ["mesh.nx=6", "mesh.nphi=6", "mesh.grading={ratio=1.0}"])
+    punches = punches_from_case(case.punches, case.shell)
+    space = ShellSpace(build_mesh(case, *fitted_lines(punches, case.shell)))
+    op = contact_operator(space, punches)
+    rng = np.random.default_rng(1)
+    Lam = np.where(rng.random(op.m) < 0.3, rng.random(op.m), 0.0)
+    gap = rng.random(op.m)
+    f = contact_vertex_arrays(op, Lam, Lam > 0, gap)
+    nv = space.mesh.nvertices
+    assert all(f[k].shape[0] == nv for k in f)
+    rows = op.vertex >= 0
+    assert f["contact_force"].sum() == pytest.approx(Lam[rows].sum(), rel=1e-12)
+    assert f["contact_force_vector"].sum(axis=0) == pytest.approx(op.resultant(np.where(rows, Lam, 0))[0], rel=1e-12)
+    assert np.array_equal(np.sort(np.nonzero(f["contact_status"] >= 0)[0]), np.unique(op.vertex[rows]))
+    assert np.array_equal(np.sort(np.nonzero(f["contact_status"] == 1)[0]), np.unique(op.vertex[rows & (Lam > 0)]))
+    assert np.array_equal(np.isnan(f["gap"]), f["contact_status"] < 0)
+    assert np.allclose(f["contact_pressure"], op.vertex_pressure(Lam))

@@ -35,7 +35,7 @@ RUN_FILES = (
 )
 
 #: per-vertex contact arrays, in the order they are written
-CONTACT_FIELDS = ("contact_status", "contact_pressure", "gap", "contact_force")
+CONTACT_FIELDS = ("contact_status", "contact_pressure", "gap", "contact_force", "contact_force_vector")
 
 
 # -- atomic writes --------------------------------------------------------------------------------
@@ -122,13 +122,52 @@ def _contact(result) -> Any:
     return getattr(result, "contact", None)
 
 
+def contact_vertex_arrays(op, Lam: np.ndarray, active: np.ndarray | None = None,
+                          gap: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Per-vertex contact arrays from a ``contact.ContactOperator`` and the row values of a solve.
+
+    Rows of all punches are gathered on their mesh vertex (edge-midpoint rows are left out):
+    ``contact_status`` 1 if any row at the vertex is active, 0 if it is only a candidate, −1 if
+    no row; ``contact_pressure`` = ``op.vertex_pressure(Lam)``; ``contact_force`` = Σ Λ_i;
+    ``contact_force_vector`` (nv, 3) = Σ Λ_i ∇Z(M_i); ``gap`` = min over the rows of G + BU (NaN
+    where no row). On a full cylinder the φ = β copies take the values of their φ = α twins.
+    """
+    nv = int(op.nvertices)
+    Lam = np.asarray(Lam, float)
+    r = np.nonzero(np.asarray(op.vertex) >= 0)[0]
+    v = np.asarray(op.vertex)[r]
+    act = (op.active(Lam) if active is None else np.asarray(active, bool))[r]
+    status = np.full(nv, -1, dtype=np.int64)
+    np.maximum.at(status, v, act.astype(np.int64))
+    force = np.zeros(nv)
+    np.add.at(force, v, Lam[r])
+    fvec = np.zeros((nv, 3))
+    np.add.at(fvec, v, (np.asarray(op.grad)[:, r] * Lam[r]).T)
+    out = {"contact_status": status, "contact_pressure": np.asarray(op.vertex_pressure(Lam), float),
+           "contact_force": force, "contact_force_vector": fvec}
+    if gap is not None:
+        g = np.full(nv, np.inf)
+        np.minimum.at(g, v, np.asarray(gap, float)[r])
+        out["gap"] = np.where(np.isfinite(g), g, np.nan)
+    twins = getattr(op, "twins", None)
+    if twins is not None:
+        slave, master = twins
+        for k in ("contact_status", "contact_force", "contact_force_vector", "gap"):
+            if k in out:
+                out[k][slave] = out[k][master]
+    return out
+
+
 def contact_vertex_fields(result) -> dict[str, np.ndarray]:
     """Per-vertex contact arrays of ``result.contact`` (empty dict without contact).
 
     Contract (docs/outputs.md): ``result.contact.vertex_fields()`` returns arrays of length
     nv (mesh vertices) named in CONTACT_FIELDS — ``contact_status`` (1 active, 0 inactive
     candidate, −1 not a candidate), ``contact_pressure`` (Λ_i/ω_i, 0 off contact), ``gap``
-    (G + BU, NaN off the candidate set), ``contact_force`` (nodal Λ_i). Without that method,
+    (G + BU, NaN off the candidate set), ``contact_force`` (nodal Λ_i), optionally
+    ``contact_force_vector`` (nv, 3). ``contact_vertex_arrays(op, Lam, active, gap)`` builds exactly
+    these from a ContactOperator; it is used directly when the object has ``operator`` and
+    ``Lambda`` (and optionally ``active``, ``gap``) attributes. Otherwise,
     attributes ``status``/``active``, ``pressure``, ``gap``, ``forces``/``Lambda`` are used, scattered
     to all vertices through ``vertices`` (candidate vertex indices) when they are shorter than nv.
     Missing fields are skipped, never invented.
@@ -139,6 +178,10 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
     nv = result.solution.space.mesh.nvertices
     if hasattr(c, "vertex_fields"):
         raw = dict(c.vertex_fields())
+    elif getattr(c, "operator", None) is not None and getattr(c, "Lambda", None) is not None:
+        gap = getattr(c, "gap", None)
+        gap = gap() if callable(gap) else gap
+        return contact_vertex_arrays(c.operator, c.Lambda, getattr(c, "active", None), gap)
     else:
         raw = {}
         for name, attrs in (

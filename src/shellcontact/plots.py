@@ -112,6 +112,10 @@ def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, 
     for k, setter in enumerate((ax.set_xlim, ax.set_ylim, ax.set_zlim)):
         setter(ctr[k] - 0.5 * span[k], ctr[k] + 0.5 * span[k])
     ax.set_box_aspect(tuple(span / span.max()))
+    from matplotlib.ticker import MaxNLocator
+
+    for axis, k in ((ax.xaxis, 0), (ax.yaxis, 1), (ax.zaxis, 2)):
+        axis.set_major_locator(MaxNLocator(max(2, int(6 * span[k] / span.max()))))
     ax.set_xlabel("X")
     ax.set_ylabel("Y")
     ax.set_zlabel("Z")
@@ -142,13 +146,19 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
     return _finish(fig, path)
 
 
-def _contact_box(fields: dict[str, np.ndarray], x: np.ndarray, phi: np.ndarray):
+def _contact_box(fields: dict[str, np.ndarray], x: np.ndarray, phi: np.ndarray, hx: float, hphi: float):
+    """The candidate zone, narrowed to the contact region (padded by its size or 4 cells) when smaller."""
     status = fields.get("contact_status")
     cand = status >= 0 if status is not None else np.ones(x.size, bool)
     if not np.any(cand):
         cand = np.ones(x.size, bool)
-    xr, pr = (float(x[cand].min()), float(x[cand].max())), (float(phi[cand].min()), float(phi[cand].max()))
-    px, pp = 0.05 * (xr[1] - xr[0] or 1.0), 0.05 * (pr[1] - pr[0] or 1.0)
+    xr, pr = [float(x[cand].min()), float(x[cand].max())], [float(phi[cand].min()), float(phi[cand].max())]
+    act = status == 1 if status is not None else np.zeros(x.size, bool)
+    if np.any(act):
+        for r, c, h in ((xr, x[act], hx), (pr, phi[act], hphi)):
+            pad = max(float(np.ptp(c)), 4.0 * h)
+            r[0], r[1] = max(r[0], float(c.min()) - pad), min(r[1], float(c.max()) + pad)
+    px, pp = 0.03 * (xr[1] - xr[0] or 1.0), 0.03 * (pr[1] - pr[0] or 1.0)
     return (xr[0] - px, xr[1] + px), (pr[0] - pp, pr[1] + pp)
 
 
@@ -175,7 +185,8 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
         act = np.asarray(status) == 1
         ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
         ax.legend(loc="upper right", fontsize=8)
-    xr, pr = _contact_box(fields, x, phi)
+    h = sol.space.mesh.h() / math.sqrt(2.0)
+    xr, pr = _contact_box(fields, x, phi, h, math.degrees(h / sol.shell.radius))
     ax.set_xlim(*xr)
     ax.set_ylim(*pr)
     ax.set_title(f"contact pressure: peak {_fmt(float(np.max(p)))}")
@@ -185,7 +196,8 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
 
 
 def pressure_lines(result) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
-    """Nodal pressures along the mesh lines x = x* and φ = φ* through the peak-pressure vertex."""
+    """Nodal pressures along the mesh lines x = x* and φ = φ* through the peak-pressure vertex,
+    within the candidate zone."""
     fields = contact_vertex_fields(result)
     p = fields.get("contact_pressure")
     if p is None or not np.any(np.asarray(p) > 0):
@@ -196,8 +208,10 @@ def pressure_lines(result) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
     phi = np.degrees(s / sol.shell.radius)
     i = int(np.argmax(p))
     tol = 1e-9 * max(sol.shell.length, s.max() - s.min())
-    on_x = np.nonzero(np.abs(x - x[i]) <= tol)[0]
-    on_s = np.nonzero(np.abs(s - s[i]) <= tol)[0]
+    status = fields.get("contact_status")
+    zone = np.asarray(status) >= 0 if status is not None else np.ones(x.size, bool)  # the candidate zone
+    on_x = np.nonzero((np.abs(x - x[i]) <= tol) & zone)[0]
+    on_s = np.nonzero((np.abs(s - s[i]) <= tol) & zone)[0]
     on_x, on_s = on_x[np.argsort(phi[on_x])], on_s[np.argsort(x[on_s])]
     return {
         f"x = {_fmt(x[i])}": (phi[on_x], p[on_x]),
