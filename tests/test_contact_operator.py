@@ -225,3 +225,13 @@ def test_contact_operator_errors():
     with pytest.raises(InputError) as e:
         setup([{**SPHERE, "zone": {"x": [0.01, 0.02], "phi": [85, 86]}}], fit=False)
     assert e.value.field == "punch.0.zone"
+
+
+def test_blocked_rows_detect_punch_on_clamped_edge():
+    # the punch overlaps the shell at the clamped edge x = x_min: no admissible displacement exists
+    case, punches, space, op = setup([{**SPHERE, "center": [-1.0, 0.0, 1.6]}])
+    red = Reduction.build(space, case.supports)
+    blocked = op.blocked_rows(red.P)
+    assert blocked.size > 0 and np.allclose(op.x[blocked], case.shell.x_min)
+    case, punches, space, op = setup([SPHERE])
+    assert op.blocked_rows(Reduction.build(space, case.supports).P).size == 0

@@ -19,6 +19,7 @@ from shellcontact.punch import (
     Torus,
     contact_surface,
     fitted_lines,
+    fitted_mesh,
     focus_lines,
     punch_from_dict,
     punches_from_case,
@@ -382,3 +383,41 @@ def test_punch_on_axis_needs_direction():
             pipe(),
         )
     assert e.value.field == "punch.0.direction"
+
+
+def test_symmetric_configuration_gives_symmetric_zone_and_lines():
+    data = {
+        "shell": {"radius": 1.0, "length": 2.0, "thickness": 0.02, "young": 1e3, "poisson": 0.3, "angle": [60, 120]},
+        "mesh": {"nx": 20, "nphi": 7, "grading": {"ratio": 3.0}},
+        "punch": [{"shape": "sphere", "center": [0.0, 0.0, 1.5], "radius": 0.3, "indentation": 0.005}],
+    }
+    case = case_from_dict(data)
+    (p,) = punches_from_case(case.punches, case.shell)
+    assert p.first_contact[0] == 0.0 and p.first_contact[1] == pytest.approx(math.pi / 2, abs=1e-15)
+    assert p.zone.x[0] == pytest.approx(-p.zone.x[1], abs=1e-14)
+    ((p0, p1),) = p.zone.phi
+    assert p0 + p1 == pytest.approx(math.pi, abs=1e-14)
+    mesh = fitted_mesh(case, [p])
+    x, s = np.sort(np.unique(mesh.p[0])), np.sort(np.unique(mesh.p[1]))
+    assert np.allclose(x, -x[::-1], atol=1e-13) and np.allclose(s - math.pi / 2, (math.pi / 2 - s)[::-1], atol=1e-13)
+    assert np.min(np.diff(x)) < 0.5 * np.max(np.diff(x))  # graded toward the contact point
+
+
+def test_ring_and_roller_lines():
+    sh = pipe()
+    ring = punch_from_dict(
+        {"shape": "torus", "center": [0.3, 0, 0], "axis": [1, 0, 0], "major_radius": 1.109, "minor_radius": 0.1}, sh
+    )
+    assert ring.varies_x and not ring.varies_phi
+    xs, ps = fitted_lines([ring], sh)
+    assert ps == [] and any(abs(v - 0.3) < 1e-12 for v in xs)  # no line at an arbitrary angle
+    roller = punch_from_dict(
+        {"shape": "cylinder", "center": [0, 0, 1.3], "axis": [1, 0, 0], "radius": 0.2, "indentation": 0.001}, sh
+    )
+    assert not roller.varies_x and roller.varies_phi
+    xs, ps = fitted_lines([roller], sh)
+    assert xs == [] and ps[1] == pytest.approx(math.pi / 2, abs=1e-12)
+    sleeve = punch_from_dict(
+        {"shape": "cylinder", "center": [0, 0, 0], "axis": [1, 0, 0], "radius": 1.009, "inverted": True}, sh
+    )
+    assert not sleeve.varies_x and not sleeve.varies_phi and fitted_lines([sleeve], sh) == ([], [])

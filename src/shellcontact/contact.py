@@ -29,6 +29,7 @@ API::
     Br = op.B @ reduction.P                        # reduced by the lead
     op.gap(U, delta), op.resultant(Lam), op.moment(Lam), op.total_normal_force(Lam),
     op.contact_area(active), op.pressure(Lam), op.vertex_pressure(Lam), op.summary(Lam, delta=...)
+    op.blocked_rows(reduction.P)                   # violated rows no displacement can open (empty K)
 
 Multipliers Λ_i ≥ 0 are nodal forces (MODEL.md §8); with signed-distance Z they are in force
 units, the pressure at row i is Λ_i/ω_i and the force of punch k on the shell is Σ Λ_i ∇Z_i.
@@ -90,6 +91,19 @@ class ContactOperator:
                 raise ValueError("force-controlled punches need their travel delta")
             out = out + self.D @ np.asarray(delta, float)
         return out
+
+    def blocked_rows(self, P: sp.spmatrix | None = None, rtol: float = 1e-12) -> np.ndarray:
+        """Rows violated (G_i < 0) that no admissible displacement can open: B_i P = 0 (and D_i = 0).
+
+        E.g. a punch overlapping a clamped edge. Non-empty ⇒ the admissible set is empty.
+        """
+        Br = self.B if P is None else (self.B @ P).tocsr()
+        scale = np.abs(self.B).max(axis=1).toarray().ravel() if self.m else np.zeros(0)
+        rowmax = np.abs(Br).max(axis=1).toarray().ravel() if self.m else np.zeros(0)
+        movable = rowmax > rtol * np.maximum(scale, 1e-300)
+        if self.D is not None:
+            movable |= np.any(self.D != 0.0, axis=1)
+        return np.nonzero((self.G < 0.0) & ~movable)[0]
 
     # -- results ---------------------------------------------------------------------------
     def _per_punch(self, values: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ API (the lead calls these; names are stable)::
     punches = punches_from_case(case.punches, case.shell)   # validated Punch objects
     xs, phis = fitted_lines(punches, shell)                 # node lines (x, φ in radians) for build_mesh
     fx, fphi = focus_lines(punches)                         # first-contact lines, for mesh grading
+    mesh = fitted_mesh(case, punches)                       # build_mesh with those lines (and grading)
 
 Case-file keys of one ``[[punch]]`` table (``punch.<i>.<key>`` in error messages):
 
@@ -32,21 +33,25 @@ Case-file keys of one ``[[punch]]`` table (``punch.<i>.<key>`` in error messages
   ``direction`` (normalised here) defaults to: the plane's ``normal``; otherwise the direction from
   the punch centre toward the shell axis (side = "outer") or away from it (side = "inner"); it is
   required for custom shapes and for centres on the shell axis. ``direction`` without
-  ``indentation``/``force`` is an error (it would be ignored).
+  ``indentation``/``force`` is an error (it would be ignored). The just-touching translation t
+  solves min_M Z(M − t d) = 0 over the contact surface of the zone (sphere tracing + Newton to a
+  bracket, then Brent); a punch given in overlap backs off (t < 0).
 * ``zone = { x = [x0, x1], phi = [p0, p1] }`` (degrees; either range may be omitted = whole
   range; on a full cylinder a φ range may cross the seam, e.g. [-30, 30]). Without ``x``/``phi`` the
   zone is automatic: the bounding box in (x, φ) of {Z < g} on the contact surface, Z of the placed
-  punch (for force control the just-touching one), widened by one sampling cell and snapped to the
-  shell edges when within 2 % of them, with the threshold
-  g = max(2·overlap, 0.2·size), overlap = −min Z ≥ 0, size = the punch's smallest radius
-  (sphere/cylinder radius, torus minor radius, smallest ellipsoid radius; the shell radius for a
-  plane or custom shape) capped by the shell radius. ``zone = { gap = g }`` overrides g.
+  punch (for force control the just-touching one), its edges located by root finding (so symmetric
+  configurations give symmetric zones) and snapped to the shell edges when within 2 % of them,
+  with the threshold g = max(2·overlap, 0.2·size), overlap = −min Z ≥ 0, size = the punch's
+  smallest radius (sphere/cylinder radius, torus minor radius, smallest ellipsoid radius; the
+  shell radius for a plane or custom shape) capped by the shell radius. ``zone = { gap = g }``
+  overrides g. For force control the travel is unknown in advance: if the contact zone reaches
+  the edge of the automatic zone, give a larger gap or an explicit zone.
 
 Checks (InputError naming the key): unknown shape or key, bad numbers/vectors, radius <= 0,
 zero axis/normal/direction, non-orthonormal ellipsoid axes, minor_radius >= major_radius,
 indentation together with force, negative indentation, force <= 0, a zone outside Ω or empty, a
-punch that never touches the shell moving along ``direction``, a fixed punch farther than g from
-the shell (automatic zone empty), an overlap larger than the shell can take: overlap > 0.2·a
+punch that never touches the shell moving along ``direction``, a punch whose smallest gap over its
+zone is not below g (nowhere near the shell), an overlap larger than the shell can take: overlap > 0.2·a
 (comparable to the radius) or overlap > 10·t (ten thicknesses: far outside linear shell theory),
 and a custom function that is not callable or returns wrong shapes / non-finite values.
 
@@ -338,6 +343,10 @@ class Punch:
     overlap: float = 0.0  # −min Z ≥ 0 on the undeformed contact surface (prescribed interference)
     min_gap: float = 0.0  # min Z on the contact surface in the zone (= −overlap when overlapping)
     first_contact: tuple[float, float] = (math.nan, math.nan)  # (x, φ) of min Z
+    # whether Z varies along x (at φ of first contact) / along φ (at x of first contact): False for
+    # the generator of a parallel roller (x) or the circle of a ring (φ); such lines are not fitted
+    varies_x: bool = True
+    varies_phi: bool = True
     size: float = math.inf
 
     @property
@@ -792,7 +801,21 @@ def punch_from_dict(d: dict, shell: Shell, index: int = 0) -> Punch:
             "move it or give 'indentation' or 'force'",
         )
     punch.zone = zone
+    punch.varies_x, punch.varies_phi = _variation(punch, shell)
     return punch
+
+
+def _variation(punch: Punch, shell: Shell, n: int = 64) -> tuple[bool, bool]:
+    """Does Z change along the x-line and the φ-circle through the first-contact point (in the zone)?"""
+    x, phi = punch.first_contact
+    if not (math.isfinite(x) and math.isfinite(phi)):
+        return False, False
+    tol = 1e-9 * min(punch.size, shell.radius)
+    xs = np.linspace(punch.zone.x[0], punch.zone.x[1], n)
+    zx = punch.Z(contact_surface(shell, xs, np.full(n, phi), punch.side_sign))[0]
+    ps = np.concatenate([np.linspace(p0, p1, n) for p0, p1 in punch.zone.phi])
+    zp = punch.Z(contact_surface(shell, np.full(ps.size, x), ps, punch.side_sign))[0]
+    return bool(np.ptp(zx) > tol), bool(np.ptp(zp) > tol)
 
 
 def punches_from_case(raw: Sequence[dict], shell: Shell) -> list[Punch]:
@@ -814,9 +837,13 @@ def _dedupe(values: list[float], lo: float, hi: float, tol: float) -> list[float
 
 
 def focus_lines(punches: Sequence[Punch]) -> tuple[list[float], list[float]]:
-    """x and φ (radians) of each punch's point of first contact / deepest overlap (grading focus)."""
-    xs = [p.first_contact[0] for p in punches if math.isfinite(p.first_contact[0])]
-    ps = [p.first_contact[1] for p in punches if math.isfinite(p.first_contact[1])]
+    """x and φ (radians) of each punch's point of first contact / deepest overlap (grading focus).
+
+    A coordinate along which Z does not vary (a ring: φ; a parallel roller: x; a coaxial sleeve:
+    both) gives no line.
+    """
+    xs = [p.first_contact[0] for p in punches if p.varies_x and math.isfinite(p.first_contact[0])]
+    ps = [p.first_contact[1] for p in punches if p.varies_phi and math.isfinite(p.first_contact[1])]
     return xs, ps
 
 
@@ -840,3 +867,21 @@ def fitted_lines(punches: Sequence[Punch], shell: Shell) -> tuple[list[float], l
     tx = 1e-9 * max(shell.length, 1.0)
     tp = 1e-9 * (shell.beta - shell.alpha)
     return _dedupe(xs, shell.x_min, shell.x_max, tx), _dedupe(ps, shell.alpha, shell.beta, tp)
+
+
+def fitted_mesh(case, punches: Sequence[Punch], grade: bool = True):
+    """``case.build_mesh`` with the fitted node lines of the punches.
+
+    With ``grade`` and a grading ratio > 1 in [mesh.grading] but no explicit focus there, the
+    mesh is graded toward the first-contact lines (focus_lines).
+    """
+    from dataclasses import replace
+
+    from .case import build_mesh
+
+    xs, ps = fitted_lines(punches, case.shell)
+    ms = case.mesh
+    if grade and ms.grading_ratio > 1.0 and not ms.grading_x and not ms.grading_phi:
+        fx, fp = focus_lines(punches)
+        ms = replace(ms, grading_x=tuple(fx), grading_phi=tuple(fp))
+    return build_mesh(replace(case, mesh=ms), extra_x=xs, extra_phi=ps)
