@@ -312,12 +312,11 @@ def plot_convergence(rows: Sequence[dict[str, Any]], path: str | Path | None = N
         if pts:
             h, e = np.array(pts).T
             ax.loglog(h, e, "o-", label=c.removeprefix("error_"))
-    if len(rows) >= 2:
-        h = np.array([r["h"] for r in rows])
+    ref = [r for r in rows if cols and isinstance(r.get(cols[0]), float) and r[cols[0]] > 0]
+    if len(ref) >= 2:
+        h = np.array([r["h"] for r in ref])
         for order, style in ((2, ":"), (4, "--")):
-            ref = [r for r in rows if isinstance(r.get(cols[0] if cols else ""), float)]
-            if ref and ref[0][cols[0]] > 0:
-                ax.loglog(h, ref[0][cols[0]] * (h / h[0]) ** order, "k" + style, lw=0.8, label=f"O(h^{order})")
+            ax.loglog(h, ref[0][cols[0]] * (h / h[0]) ** order, "k" + style, lw=0.8, label=f"O(h{'²⁴'[order // 4]})")
     ax.set_xlabel("h (largest edge in (x, s))")
     ax.set_ylabel("relative error against the finest level")
     ax.set_title("convergence under nested refinement")
