@@ -93,6 +93,13 @@ def test_rigid_motion_fields_match_the_3d_motion():
         ) / (4 * h**2)
         for name, fd in (("w_xx", wxx), ("w_ss", wss), ("w_xs", wxs)):
             assert np.allclose(d[name], fd, atol=1e-5), (RIGID_MOTIONS[k], name)
+        # the strains of MODEL.md §2, fed with these finite differences only, vanish
+        fd = {"w_xx": wxx, "w_ss": wss, "w_xs": wxs}
+        for i, name in enumerate("uvw"):
+            fd[name] = ref[i]
+            fd[name + "_x"] = (local(k, x + h, s)[i] - local(k, x - h, s)[i]) / (2 * h)
+            fd[name + "_s"] = (local(k, x, s + h)[i] - local(k, x, s - h)[i]) / (2 * h)
+        assert np.abs(model.strains(fd, sh.radius)).max() < 1e-6, RIGID_MOTIONS[k]
 
 
 def test_exact_rigid_motions_have_zero_strain_energy():
@@ -118,6 +125,7 @@ def test_exact_rigid_motions_have_zero_strain_energy():
         return out
 
     ref = model.energy_norm_sq(space, _exact_callable(space, bump))
+    assert ref > 0
     print("\nrigid motion                 a(R,R)/a(Q,Q)")
     for k in range(6):
         e = model.energy_norm_sq(space, _exact_callable(space, rigid_motion(sh, *_rigid(k, sh))))
