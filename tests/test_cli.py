@@ -23,8 +23,9 @@ SWEEP = ["sweep", CASE, *SMALL, "--param", "shell.thickness", "--values", "0.2:0
 
 
 def cli(*args: str, cwd: Path, check: bool = True) -> subprocess.CompletedProcess:
-    r = subprocess.run([sys.executable, "-m", "shellcontact.cli", *args], cwd=cwd, env=ENV, capture_output=True,
-                       text=True, timeout=300)
+    r = subprocess.run(
+        [sys.executable, "-m", "shellcontact.cli", *args], cwd=cwd, env=ENV, capture_output=True, text=True, timeout=300
+    )
     if check:
         assert r.returncode == 0, r.stderr
         assert "Traceback" not in r.stderr
@@ -64,10 +65,11 @@ def test_run_summary_and_overrides(tmp_path: Path) -> None:
     from shellcontact import solve
     from shellcontact.overrides import load_case
 
+    # (this process may use other BLAS/PARDISO thread counts: equal up to round-off)
     ref = solve(load_case(CASE, ["mesh.nx=4", "mesh.nphi=4"])).summary()
     assert s["dofs"] == ref["dofs"]
-    assert s["energy"] == pytest.approx(ref["energy"], rel=1e-12)
-    assert p["w"] == pytest.approx(ref["probes"][0]["w"], rel=1e-12)
+    assert s["energy"] == pytest.approx(ref["energy"], rel=1e-10)
+    assert p["w"] == pytest.approx(ref["probes"][0]["w"], rel=1e-10)
 
 
 def test_run_quiet_force_and_default_dir(tmp_path: Path) -> None:
@@ -98,8 +100,7 @@ def test_sweep_csv_and_plots(tmp_path: Path) -> None:
     assert (tmp_path / "sw" / "sweep.png").stat().st_size > 1000
     assert "shell.thickness" in r.stdout
     # the middle step equals a single run with the same thickness
-    cli("run", CASE, *SMALL, "--set", "shell.thickness=0.25", "-o", "one", "--no-figures", "--no-report",
-        cwd=tmp_path)
+    cli("run", CASE, *SMALL, "--set", "shell.thickness=0.25", "-o", "one", "--no-figures", "--no-report", cwd=tmp_path)
     s = json.loads((tmp_path / "one" / "summary.json").read_text())
     assert energy[1] == pytest.approx(s["energy"], rel=1e-12)
 
@@ -127,8 +128,13 @@ def test_sweep_killed_then_resumed(tmp_path: Path) -> None:
     args = ["sweep", CASE, *SMALL, "--param", "shell.thickness", "--values", values, "--no-figures"]
     cli(*args, "-o", "ref", cwd=tmp_path)
     reference = _csv(tmp_path / "ref" / "sweep.csv")
-    proc = subprocess.Popen([sys.executable, "-m", "shellcontact.cli", *args, "-o", "cut"], cwd=tmp_path, env=ENV,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "shellcontact.cli", *args, "-o", "cut"],
+        cwd=tmp_path,
+        env=ENV,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     first = tmp_path / "cut" / "steps" / "step-0000.json"
     deadline = time.monotonic() + 120
     while not first.exists() and proc.poll() is None and time.monotonic() < deadline:
@@ -152,8 +158,9 @@ def test_sweep_refuses_foreign_directory(tmp_path: Path) -> None:
 
 
 def test_convergence(tmp_path: Path) -> None:
-    r = cli("convergence", CASE, "--set", "mesh.nx=2", "--set", "mesh.nphi=2", "--levels", "3", "-o", "cv",
-            cwd=tmp_path)
+    r = cli(
+        "convergence", CASE, "--set", "mesh.nx=2", "--set", "mesh.nphi=2", "--levels", "3", "-o", "cv", cwd=tmp_path
+    )
     rows = json.loads((tmp_path / "cv" / "convergence.json").read_text())["rows"]
     assert [row["refine"] for row in rows] == [0, 1, 2]
     assert rows[0]["dofs"] < rows[1]["dofs"] < rows[2]["dofs"]
