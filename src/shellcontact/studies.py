@@ -227,6 +227,9 @@ def sweep(
     fps = [_fingerprint(r, source) for r in step_raws]
     out = Path(output_dir) if output_dir is not None else None
     steps = out / "steps" if out is not None else None
+    if steps is not None and steps.is_dir():
+        for tmp in steps.glob(".step-*.tmp"):  # left by a sweep killed while writing a record
+            tmp.unlink(missing_ok=True)
     if out is not None:
         write_json(out / "sweep.json", {"case_file": source, "param": param, "values": vals, "jobs": jobs})
     n = len(vals)
