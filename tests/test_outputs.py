@@ -93,8 +93,12 @@ def test_pngs(run_dir: Path) -> None:
 def test_report_contains_summary_numbers(run_dir: Path, summary: dict) -> None:
     text = (run_dir / "report.html").read_text()
     assert text.startswith("<!DOCTYPE html>") and text.rstrip().endswith("</html>")
-    numbers = [summary["energy"], summary["max_abs_w"], summary["timings"]["total"],
-               *(summary["probes"][0][k] for k in ("u", "v", "w"))]
+    numbers = [
+        summary["energy"],
+        summary["max_abs_w"],
+        summary["timings"]["total"],
+        *(summary["probes"][0][k] for k in ("u", "v", "w")),
+    ]
     for v in numbers:
         assert f">{v:.6g}<" in text, v  # in a table cell
     assert f">{summary['dofs']}<" in text
@@ -158,10 +162,24 @@ def test_contact_figures_and_report(tmp_path: Path, contact_result) -> None:
 
     result, _, _ = contact_result
     summary = result.summary()
-    summary["contact"] = [{"active_vertices": 7, "area": 12.3456789, "force": [0.0, 0.0, -4.5], "force_magnitude": 4.5,
-                           "total_normal_force": 4.75, "peak_pressure": 987.654321, "punch_travel": None}]
-    summary["kkt"] = {"stationarity": 1.234e-13, "penetration": 0.0, "dual_feasibility": 0.0,
-                      "complementarity": 5.5e-15, "duality_gap": 2.2e-16}
+    summary["contact"] = [
+        {
+            "active_vertices": 7,
+            "area": 12.3456789,
+            "force": [0.0, 0.0, -4.5],
+            "force_magnitude": 4.5,
+            "total_normal_force": 4.75,
+            "peak_pressure": 987.654321,
+            "punch_travel": None,
+        }
+    ]
+    summary["kkt"] = {
+        "stationarity": 1.234e-13,
+        "penetration": 0.0,
+        "dual_feasibility": 0.0,
+        "complementarity": 5.5e-15,
+        "duality_gap": 2.2e-16,
+    }
     written = write_outputs(result, tmp_path / "out", summary)
     for name in ("pressure.png", "pressure_profiles.png", "deformed.png"):
         assert name in written and written[name].read_bytes().startswith(PNG)

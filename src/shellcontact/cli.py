@@ -39,9 +39,7 @@ class Console:
     def __init__(self, quiet: bool = False, stream=None) -> None:
         self.quiet = quiet
         self.stream = stream or sys.stderr
-        self.bar = (
-            not quiet and hasattr(self.stream, "isatty") and self.stream.isatty() and not os.environ.get("CI")
-        )
+        self.bar = not quiet and hasattr(self.stream, "isatty") and self.stream.isatty() and not os.environ.get("CI")
         self._drawn = False
 
     def print(self, *args) -> None:
@@ -115,8 +113,11 @@ def _print_summary(con: Console, s: dict) -> None:
     contact = s.get("contact")
     if contact:
         for i, c in enumerate(contact if isinstance(contact, list) else [contact]):
-            parts = [f"{k} {c[k]:.6g}" for k in ("force_magnitude", "area", "peak_pressure") if
-                     isinstance(c.get(k), (int, float))]
+            parts = [
+                f"{k} {c[k]:.6g}"
+                for k in ("force_magnitude", "area", "peak_pressure")
+                if isinstance(c.get(k), (int, float))
+            ]
             con.print(f"punch {i}: " + "  ".join(parts))
     kkt = s.get("kkt")
     if isinstance(kkt, dict) and kkt:
@@ -140,8 +141,7 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     summary["case_file"] = str(args.case)
     if sets:
         summary["overrides"] = sets
-    written = write_outputs(result, out, summary, figures=not args.no_figures, report=not args.no_report,
-                            log=log.info)
+    written = write_outputs(result, out, summary, figures=not args.no_figures, report=not args.no_report, log=log.info)
     _print_summary(con, summary)
     con.print(f"wrote {out}/: {', '.join(written)}")
     return EXIT_OK
@@ -215,8 +215,9 @@ def cmd_info(args: argparse.Namespace, con: Console) -> int:
     con.print("  ".join(f"{k} {val}" for k, val in v.items() if k not in ("shellcontact", "platform")))
     con.print(f"platform: {v['platform']}")
     con.print(f"linear-algebra backends: {', '.join(available_backends())} (using {default_backend()})")
-    env = ", ".join(f"{k}={os.environ.get(k, 'unset')}" for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS",
-                                                                   "OPENBLAS_NUM_THREADS"))
+    env = ", ".join(
+        f"{k}={os.environ.get(k, 'unset')}" for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+    )
     con.print(f"cores: {os.cpu_count()}, {env}")
     return EXIT_OK
 
@@ -233,52 +234,73 @@ def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
     p.add_argument("case", help="TOML case file (keys: docs/case-file.md)")
     p.add_argument("-o", "--output", metavar="DIR", help=out_help)
     p.add_argument("--method", choices=METHODS, help="contact solver; same as --set solver.method=...")
-    p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="override a case-file key by dotted path, VALUE a TOML literal "
-                   "(e.g. --set mesh.refine=2 --set punch.0.indentation=2e-3); repeatable")
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a case-file key by dotted path, VALUE a TOML literal "
+        "(e.g. --set mesh.refine=2 --set punch.0.indentation=2e-3); repeatable",
+    )
     p.add_argument("--force", action="store_true", help="overwrite an existing non-empty output directory")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="shellcontact", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = argparse.ArgumentParser(
+        prog="shellcontact", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("--version", action="version", version=f"shellcontact {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    r = sub.add_parser("run", help="solve one case file and write the run directory",
-                       description="Solve one case and write DIR/summary.json, fields.vtu (ParaView), results.npz, "
-                       "deflection/deformed (and, with contact, pressure) PNG figures and report.html.")
+    r = sub.add_parser(
+        "run",
+        help="solve one case file and write the run directory",
+        description="Solve one case and write DIR/summary.json, fields.vtu (ParaView), results.npz, "
+        "deflection/deformed (and, with contact, pressure) PNG figures and report.html.",
+    )
     _case_args(r, "output directory (default: <case name>-out)")
     r.add_argument("--no-report", action="store_true", help="skip report.html")
     _common(r)
     r.set_defaults(func=cmd_run)
 
-    d = sub.add_parser("demo", help="the paper's problem by three methods, side by side",
-                       description="A clamped cylindrical panel pressed by a spherical punch, solved by the "
-                       "penalty, active-set and dual methods; prints a table and writes DIR.")
+    d = sub.add_parser(
+        "demo",
+        help="the paper's problem by three methods, side by side",
+        description="A clamped cylindrical panel pressed by a spherical punch, solved by the "
+        "penalty, active-set and dual methods; prints a table and writes DIR.",
+    )
     d.add_argument("-o", "--output", metavar="DIR", default="demo-out", help="output directory (default: demo-out)")
     d.add_argument("--force", action="store_true", help="overwrite an existing non-empty output directory")
     _common(d)
     d.set_defaults(func=cmd_demo)
 
-    s = sub.add_parser("sweep", help="one solve per parameter value: CSV and plots (resumable)",
-                       description="A load path: solve the case for each value of a case-file key. Writes "
-                       "DIR/sweep.csv (parameter, energy, max|w|, probe w, and with contact force, area, peak "
-                       "pressure), sweep.png, force_indentation.png. Finished steps are recorded in DIR/steps/; "
-                       "running the same command again resumes without recomputing them.")
+    s = sub.add_parser(
+        "sweep",
+        help="one solve per parameter value: CSV and plots (resumable)",
+        description="A load path: solve the case for each value of a case-file key. Writes "
+        "DIR/sweep.csv (parameter, energy, max|w|, probe w, and with contact force, area, peak "
+        "pressure), sweep.png, force_indentation.png. Finished steps are recorded in DIR/steps/; "
+        "running the same command again resumes without recomputing them.",
+    )
     _case_args(s, "output directory (default: <case name>-sweep)")
     s.add_argument("--param", required=True, metavar="KEY", help="case-file key to vary, e.g. punch.0.indentation")
-    s.add_argument("--values", required=True, metavar="SPEC",
-                   help="start:stop:count (ends included, e.g. 0:5e-3:11) or a comma list (1e-3,2e-3)")
+    s.add_argument(
+        "--values",
+        required=True,
+        metavar="SPEC",
+        help="start:stop:count (ends included, e.g. 0:5e-3:11) or a comma list (1e-3,2e-3)",
+    )
     s.add_argument("--jobs", type=int, default=1, metavar="N", help="solve N steps in parallel processes")
     _common(s)
     s.set_defaults(func=cmd_sweep)
 
-    c = sub.add_parser("convergence", help="nested mesh refinement: errors and observed rates",
-                       description="Solve with mesh.refine = r0, r0+1, ..., r0+L-1 (r0 the case's value); "
-                       "print and write DIR/convergence.csv (dofs, h, energy, force or probe value, errors "
-                       "against the finest level, observed rates), convergence.json and convergence.png.")
+    c = sub.add_parser(
+        "convergence",
+        help="nested mesh refinement: errors and observed rates",
+        description="Solve with mesh.refine = r0, r0+1, ..., r0+L-1 (r0 the case's value); "
+        "print and write DIR/convergence.csv (dofs, h, energy, force or probe value, errors "
+        "against the finest level, observed rates), convergence.json and convergence.png.",
+    )
     _case_args(c, "output directory (default: <case name>-convergence)")
     c.add_argument("--levels", type=int, default=4, metavar="L", help="number of refinement levels (default 4)")
     _common(c)

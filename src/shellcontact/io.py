@@ -122,8 +122,9 @@ def _contact(result) -> Any:
     return getattr(result, "contact", None)
 
 
-def contact_vertex_arrays(op, Lam: np.ndarray, active: np.ndarray | None = None,
-                          gap: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def contact_vertex_arrays(
+    op, Lam: np.ndarray, active: np.ndarray | None = None, gap: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
     """Per-vertex contact arrays from a ``contact.ContactOperator`` and the row values of a solve.
 
     Rows of all punches are gathered on their mesh vertex (edge-midpoint rows are left out):
@@ -143,8 +144,12 @@ def contact_vertex_arrays(op, Lam: np.ndarray, active: np.ndarray | None = None,
     np.add.at(force, v, Lam[r])
     fvec = np.zeros((nv, 3))
     np.add.at(fvec, v, (np.asarray(op.grad)[:, r] * Lam[r]).T)
-    out = {"contact_status": status, "contact_pressure": np.asarray(op.vertex_pressure(Lam), float),
-           "contact_force": force, "contact_force_vector": fvec}
+    out = {
+        "contact_status": status,
+        "contact_pressure": np.asarray(op.vertex_pressure(Lam), float),
+        "contact_force": force,
+        "contact_force_vector": fvec,
+    }
     if gap is not None:
         g = np.full(nv, np.inf)
         np.minimum.at(g, v, np.asarray(gap, float)[r])

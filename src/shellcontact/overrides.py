@@ -31,9 +31,7 @@ def parse_value(text: str, where: str = "--set") -> Any:
     except tomllib.TOMLDecodeError:
         if _BARE.match(text) and not text[0].isdigit() and text[0] not in "+-.":
             return text
-        raise InputError(
-            where, f"value {text!r} is not a TOML literal (e.g. 2e-3, true, \"dual\", [0, 0, -1])"
-        ) from None
+        raise InputError(where, f'value {text!r} is not a TOML literal (e.g. 2e-3, true, "dual", [0, 0, -1])') from None
 
 
 def parse_assignment(item: str) -> tuple[str, Any]:

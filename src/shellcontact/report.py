@@ -155,8 +155,15 @@ def render(
     ]
     solver = summary.get("solver")
     sections = [
-        ("Run", table([("date (UTC)", _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M:%S")),
-                       ("case file", summary.get("case_file", "—"))])),
+        (
+            "Run",
+            table(
+                [
+                    ("date (UTC)", _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M:%S")),
+                    ("case file", summary.get("case_file", "—")),
+                ]
+            ),
+        ),
         ("Inputs", table(input_rows, ("key", "value")) if input_rows else ""),
         ("Key results", _key_results(summary)),
         ("Probes", _probes(summary)),

@@ -79,8 +79,11 @@ def _value(v: float) -> int | float:
 # -- rows -----------------------------------------------------------------------------------------------
 def summary_row(summary: dict[str, Any]) -> dict[str, Any]:
     """The CSV columns of one solve: dofs, energy, max|w|, probe w, and contact columns when present."""
-    row: dict[str, Any] = {"dofs": summary.get("dofs"), "energy": summary.get("energy"),
-                           "max_abs_w": summary.get("max_abs_w")}
+    row: dict[str, Any] = {
+        "dofs": summary.get("dofs"),
+        "energy": summary.get("energy"),
+        "max_abs_w": summary.get("max_abs_w"),
+    }
     for i, p in enumerate(summary.get("probes") or []):
         row[f"probe{i}_w"] = p.get("w")
     contact = summary.get("contact")
@@ -194,8 +197,10 @@ def _worker(raw: dict, source: str | None, param: str, index: int, value: Any, s
     _, summary = _solve_summary(case)
     row = _step_row(param, value, summary)
     if steps is not None:
-        write_json(_record_path(Path(steps), index), {"index": index, "value": value, "fingerprint": fp,
-                                                      "row": row, "summary": summary})
+        write_json(
+            _record_path(Path(steps), index),
+            {"index": index, "value": value, "fingerprint": fp, "row": row, "summary": summary},
+        )
     return index, row, summary
 
 
@@ -269,8 +274,10 @@ def sweep(
             previous = (i, result)
             rows[i], sums[i] = _step_row(param, vals[i], summary), summary
             if steps is not None:
-                write_json(_record_path(steps, i), {"index": i, "value": vals[i], "fingerprint": fps[i],
-                                                    "row": rows[i], "summary": summary})
+                write_json(
+                    _record_path(steps, i),
+                    {"index": i, "value": vals[i], "fingerprint": fps[i], "row": rows[i], "summary": summary},
+                )
             done += 1
             log.info("step %d/%d: %s = %g, energy %.6g", i + 1, n, param, vals[i], summary.get("energy", math.nan))
             if progress:
@@ -358,16 +365,18 @@ def convergence(
         qname = qname or name
         if name != qname:
             name, q = qname, None
-        rows.append({
-            "level": lv,
-            "refine": r0 + lv,
-            "vertices": summary.get("vertices"),
-            "elements": summary.get("elements"),
-            "dofs": summary.get("dofs"),
-            "h": result.solution.space.mesh.h(),
-            "energy": summary.get("energy"),
-            qname: q,
-        })
+        rows.append(
+            {
+                "level": lv,
+                "refine": r0 + lv,
+                "vertices": summary.get("vertices"),
+                "elements": summary.get("elements"),
+                "dofs": summary.get("dofs"),
+                "h": result.solution.space.mesh.h(),
+                "energy": summary.get("energy"),
+                qname: q,
+            }
+        )
         sums.append(summary)
         log.info("level %d: dofs %s energy %.10g %s %.10g", lv, summary.get("dofs"), summary["energy"], qname, q)
     if progress:
@@ -388,8 +397,15 @@ def convergence(
     if output_dir is not None:
         out = Path(output_dir)
         res.files["convergence.csv"] = write_csv(out / "convergence.csv", rows)
-        write_json(out / "convergence.json", {"case_file": str(case.source) if case.source else None,
-                                              "quantity": qname, "rows": rows, "summaries": sums})
+        write_json(
+            out / "convergence.json",
+            {
+                "case_file": str(case.source) if case.source else None,
+                "quantity": qname,
+                "rows": rows,
+                "summaries": sums,
+            },
+        )
         res.files["convergence.json"] = out / "convergence.json"
         if figures:
             from . import plots
@@ -409,7 +425,16 @@ def convergence_table(res: ConvergenceResult) -> str:
         return "—" if v is None else (f"{v:.6g}" if isinstance(v, float) else str(v))
 
     for r in res.rows:
-        vals = (r["level"], r["dofs"], r["h"], r["energy"], r[q], r["error_energy"], r["rate_energy"],
-                r[f"error_{q}"], r[f"rate_{q}"])
+        vals = (
+            r["level"],
+            r["dofs"],
+            r["h"],
+            r["energy"],
+            r[q],
+            r["error_energy"],
+            r["rate_energy"],
+            r[f"error_{q}"],
+            r[f"rate_{q}"],
+        )
         lines.append("  ".join(f"{f(v):>12}" for v in vals))
     return "\n".join(lines)
