@@ -1,7 +1,20 @@
-"""From a validated case to a solution: mesh → space → assembly → solve, with timings."""
+"""From a validated case to a solution: mesh → space → assembly → (contact) solve, with timings.
+
+Without punches this is one linear solve. With punches the discrete problem is the QP of
+MODEL.md §8, solved in the reduced space U = P U_r by the method of ``[solver] method``:
+
+* ``"active-set"`` — exact primal: primal–dual active set / semismooth Newton (default);
+* ``"dual"`` — the dual QP (7.9) on the multipliers, MPRGP with exact face solves;
+* ``"penalty"`` — (6.7)–(6.8) with penalty ε (``[solver] penalty``), optional continuation.
+
+All three share one factorisation of the reduced stiffness. ``nested = true`` first solves the
+case on the next coarser mesh (``mesh.refine`` − 1, recursively) and starts from that solution
+interpolated onto the fine mesh; ``warm_start=`` does the same from any earlier Result.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -10,11 +23,18 @@ import numpy as np
 
 from . import model
 from .case import Case, build_mesh
+from .contact import ContactOperator, contact_operator
+from .errors import InputError
 from .linalg import factorize
 from .loads import load_vector
+from .punch import Punch, fitted_lines, punches_from_case
 from .results import ShellSolution
+from .solvers import ContactQP, ContactSolution, solve_active_set, solve_dual, solve_penalty
 from .spaces import ShellSpace
 from .supports import Reduction
+
+METHODS = ("active-set", "dual", "penalty")
+KKT_KEYS = ("stationarity", "penetration", "dual_feasibility", "complementarity", "duality_gap")
 
 
 class Timer:
@@ -41,17 +61,90 @@ class Timer:
 
 
 @dataclass
+class SolverOptions:
+    """The validated ``[solver]`` table."""
+
+    method: str = "active-set"
+    tolerance: float = 1e-10
+    penalty: float | None = None  # ε; default: 1e-6 · a²/(E t), see ``default_penalty``
+    continuation: tuple[float, ...] = ()
+    max_iterations: int | None = None
+    backend: str = "auto"
+    nested: bool = False
+
+    @classmethod
+    def from_case(cls, case: Case, method: str | None = None) -> SolverOptions:
+        d = dict(case.solver)
+        if method is not None:
+            d["method"] = method
+        m = d.get("method", "active-set")
+        if m not in METHODS:
+            raise InputError("solver.method", f"must be one of {', '.join(METHODS)}, got {m!r}")
+        tol = d.get("tolerance", 1e-10)
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1:
+            raise InputError("solver.tolerance", f"must be a number in (0, 1), got {tol!r}")
+        eps = d.get("penalty")
+        if eps is not None and (isinstance(eps, bool) or not isinstance(eps, (int, float)) or not eps > 0):
+            raise InputError("solver.penalty", f"the penalty parameter epsilon must be a number > 0, got {eps!r}")
+        cont = d.get("continuation", [])
+        if cont is True:
+            cont = []  # filled from the final ε below
+        if not isinstance(cont, list) or any(isinstance(c, bool) or not isinstance(c, (int, float)) or c <= 0
+                                             for c in cont):
+            raise InputError("solver.continuation", f"must be a list of penalty values > 0, got {cont!r}")
+        it = d.get("max_iterations")
+        if it is not None and (isinstance(it, bool) or not isinstance(it, int) or it < 1):
+            raise InputError("solver.max_iterations", f"must be an integer >= 1, got {it!r}")
+        nested = d.get("nested", False)
+        if not isinstance(nested, bool):
+            raise InputError("solver.nested", f"must be true or false, got {nested!r}")
+        backend = d.get("backend", "auto")
+        if not isinstance(backend, str):
+            raise InputError("solver.backend", f"must be a string, got {backend!r}")
+        return cls(m, float(tol), None if eps is None else float(eps), tuple(float(c) for c in cont), it,
+                   backend, nested)
+
+
+def default_penalty(case: Case) -> float:
+    """ε = 1e-6 · a²/(E t): springs 10⁶ times stiffer than the membrane ring stiffness E t/a² of the shell."""
+    sh = case.shell
+    t = float(np.mean(sh.t(np.array([sh.x_min, sh.x_max]), np.array([sh.alpha, sh.beta]))))
+    return 1e-6 * sh.radius**2 / (sh.young * t)
+
+
+@dataclass
+class ContactResult:
+    """The contact part of a solution (row arrays are per constraint, in ``operator`` order)."""
+
+    operator: ContactOperator
+    solution: ContactSolution  # of the reduced QP
+    Lambda: np.ndarray  # nodal forces Λ ≥ 0
+    active: np.ndarray  # bool
+    gap: np.ndarray  # G + B U (+ D δ)
+    delta: np.ndarray | None  # force-control travel
+
+    @property
+    def pressure(self) -> np.ndarray:
+        return self.operator.pressure(self.Lambda)
+
+    def summary(self) -> list[dict]:
+        return self.operator.summary(self.Lambda, self.active, self.delta)
+
+
+@dataclass
 class Result:
-    """The outcome of ``solve(case)``: the solution and its JSON-ready summary."""
+    """The outcome of ``solve(case)``: the solution, its contact state and a JSON-ready summary."""
 
     case: Case
     solution: ShellSolution
     timings: dict[str, float]
     info: dict[str, Any] = field(default_factory=dict)
+    contact: ContactResult | None = None
+    punches: list[Punch] = field(default_factory=list)
 
     def summary(self) -> dict[str, Any]:
         sol = self.solution
-        out = {
+        out: dict[str, Any] = {
             "dofs": int(sol.space.ndofs),
             "unknowns": int(self.info.get("unknowns", sol.space.ndofs)),
             "elements": int(sol.space.mesh.nelements),
@@ -60,35 +153,91 @@ class Result:
             "max_abs_w": sol.max_abs_w,
             "probes": [sol.probe(x, phi) for x, phi in self.case.probes],
             "reaction_resultant": [float(c) for c in sol.reaction_resultant()],
-            "backend": self.info.get("backend"),
-            "timings": dict(self.timings),
         }
-        out.update({k: v for k, v in self.info.items() if k not in out})
+        if self.contact is not None:
+            cs = self.contact.solution
+            out["contact"] = self.contact.summary()
+            out["kkt"] = {k: float(cs.residuals.get(k, float("nan"))) for k in KKT_KEYS}
+            out["solver"] = cs.method
+            out["iterations"] = int(cs.iterations)
+            if "penalty" in self.info:
+                out["penalty"] = self.info["penalty"]
+        out["backend"] = self.info.get("backend")
+        out["timings"] = dict(self.timings)
         return out
 
 
-def solve(case: Case, backend: str | None = None) -> Result:
-    """Solve the linear shell problem of ``case`` (no contact)."""
+def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndarray | None, eps: float):
+    kw: dict[str, Any] = {"tol": opts.tolerance, "factorization": fac}
+    if opts.max_iterations is not None:
+        kw["max_iterations"] = opts.max_iterations
+    if opts.method == "penalty":
+        return solve_penalty(qp, epsilon=eps, continuation=list(opts.continuation) or None,
+                             initial_U=initial_U_r, **kw)
+    initial_active = None if initial_U_r is None else qp.gap(initial_U_r) <= 0.0
+    if opts.method == "dual":
+        return solve_dual(qp, initial_active=initial_active, **kw)
+    return solve_active_set(qp, initial_active=initial_active, **kw)
+
+
+def solve(case: Case, method: str | None = None, backend: str | None = None,
+          warm_start: Result | None = None) -> Result:
+    """Solve ``case``: the linear shell problem, or the contact problem when it has punches."""
+    opts = SolverOptions.from_case(case, method)
+    if backend is not None:
+        opts = dataclasses.replace(opts, backend=backend)
     timer = Timer()
     with timer.stage("mesh"):
-        mesh = build_mesh(case)
+        punches = punches_from_case(case.punches, case.shell)
+        extra_x, extra_phi = fitted_lines(punches, case.shell) if punches else ([], [])
+        mesh = build_mesh(case, extra_x, extra_phi)
         space = ShellSpace(mesh)
     with timer.stage("assembly"):
         A = model.stiffness(space)
         F = load_vector(space, case.loads)
         red = Reduction.build(space, case.supports)
         Ar, Fr = red.reduce_matrix(A), red.reduce_vector(F)
+        op = contact_operator(space, punches) if punches else None
     with timer.stage("factorization"):
-        fac = factorize(Ar, backend or case.solver.get("backend", "auto"))
+        fac = factorize(Ar, opts.backend)
+    info: dict[str, Any] = {"backend": fac.backend, "unknowns": int(Ar.shape[0])}
+
+    if op is None:
+        with timer.stage("solve"):
+            U = red.expand(fac.solve(Fr))
+        timings = timer.total()
+        sol = ShellSolution(space=space, U=U, A=A, F=F, timings=timings)
+        return Result(case=case, solution=sol, timings=timings, info=info)
+
+    start = warm_start
+    if start is None and opts.nested and case.mesh.refine > 0:
+        coarse = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, refine=case.mesh.refine - 1))
+        with timer.stage("nested"):
+            start = solve(coarse, method=opts.method, backend=opts.backend)
+        info["nested_iterations"] = [start.info.get("nested_iterations", []), start.contact.solution.iterations]
+    initial_U_r = None
+    if start is not None:
+        U0 = start.solution.prolongate(space)
+        initial_U_r = U0[red.free]
+    with timer.stage("assembly"):
+        qp = ContactQP(Ar, Fr, op.B @ red.P, op.G, op.weights,
+                       D=op.D, P=op.forces if op.D is not None else None,
+                       row_labels=_row_labels(op))
+    eps = opts.penalty if opts.penalty is not None else default_penalty(case)
+    if opts.method == "penalty":
+        info["penalty"] = eps
     with timer.stage("solve"):
-        U = red.expand(fac.solve(Fr))
+        cs = _solve_contact(qp, opts, fac, initial_U_r, eps)
+    U = red.expand(cs.U)
     timings = timer.total()
-    timings.setdefault("output", 0.0)
-    sol = ShellSolution(space=space, U=U, A=A, F=F, timings=timings)
-    info = {"backend": fac.backend, "unknowns": int(Ar.shape[0])}
-    return Result(case=case, solution=sol, timings=timings, info=info)
+    info["solver_timings"] = dict(cs.timings)
+    Lam = np.asarray(cs.Lambda, float)
+    contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
+                            gap=op.gap(U, cs.delta), delta=cs.delta)
+    sol = ShellSolution(space=space, U=U, A=A, F=F, timings=timings, extra_forces=op.B.T @ Lam)
+    return Result(case=case, solution=sol, timings=timings, info=info, contact=contact, punches=punches)
 
 
-def residual(sol: ShellSolution, red: Reduction) -> float:
-    r = red.reduce_vector(sol.A @ sol.U - sol.F)
-    return float(np.linalg.norm(r) / max(np.linalg.norm(red.reduce_vector(sol.F)), 1e-300))
+def _row_labels(op: ContactOperator) -> list[str]:
+    deg = np.degrees(op.phi)
+    return [f"punch.{k} point (x={x:.6g}, phi={p:.6g} deg)" for k, x, p in zip(op.punch, op.x, deg)]

@@ -95,6 +95,11 @@ class ShellSolution:
         phi = p[1] / self.shell.radius
         return self.shell.point(p[0], phi) + scale * self.displacement(p[0], phi)
 
+    def prolongate(self, space: ShellSpace) -> np.ndarray:
+        """This field interpolated into another (typically finer, nested) space: a warm start."""
+        a = self.shell.radius
+        return space.interpolate(lambda x, s: self.evaluate(x, s / a))
+
     def probe(self, x: float, phi: float) -> dict:
         d = self.evaluate([x], [phi], ("u", "v", "w"))
         return {
