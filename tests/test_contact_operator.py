@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from shellcontact.case import build_mesh, case_from_dict
-from shellcontact.contact import contact_operator
+from shellcontact.contact import contact_operator, penetration_outside
 from shellcontact.errors import InputError
 from shellcontact.geometry import frame, rigid_motion
 from shellcontact.punch import fitted_lines, punches_from_case
@@ -235,3 +235,17 @@ def test_blocked_rows_detect_punch_on_clamped_edge():
     assert blocked.size > 0 and np.allclose(op.x[blocked], case.shell.x_min)
     case, punches, space, op = setup([SPHERE])
     assert op.blocked_rows(Reduction.build(space, case.supports).P).size == 0
+
+
+def test_penetration_outside_the_zone_is_reported():
+    # a fixed sphere with a deep prescribed overlap (radius ≈ 0.17) but a zone of one vertex
+    deep = {"shape": "sphere", "center": [0.0, 0.0, 1.6], "radius": 0.6, "zone": {"x": [-0.01, 0.01], "phi": [89, 91]}}
+    case, punches, space, op = setup([deep], n=16, fit=False)
+    assert op.m == 1
+    pen = penetration_outside(space, punches, np.zeros(space.ndofs))
+    assert pen[0] > 0
+    wide = setup([{**deep, "zone": {"x": [-0.5, 0.5], "phi": [60, 120]}}], n=16)
+    assert penetration_outside(wide[2], wide[1], np.zeros(wide[2].ndofs))[0] == 0.0
+    # a rigid translation away from the punch (larger than the overlap) opens every gap
+    U = space.interpolate(rigid_motion(case.shell, [0.0, 0.0, -0.05], [0.0, 0.0, 0.0]))
+    assert penetration_outside(space, punches, U)[0] == 0.0

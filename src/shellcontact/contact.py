@@ -30,6 +30,7 @@ API::
     op.gap(U, delta), op.resultant(Lam), op.moment(Lam), op.total_normal_force(Lam),
     op.contact_area(active), op.pressure(Lam), op.vertex_pressure(Lam), op.summary(Lam, delta=...)
     op.blocked_rows(reduction.P)                   # violated rows no displacement can open (empty K)
+    penetration_outside(space, punches, U, delta)  # after a solve: does contact leave the zones?
 
 Multipliers Λ_i ≥ 0 are nodal forces (MODEL.md §8); with signed-distance Z they are in force
 units, the pressure at row i is Λ_i/ω_i and the force of punch k on the shell is Σ Λ_i ∇Z_i.
@@ -361,3 +362,33 @@ def contact_operator(space: ShellSpace, punches: Sequence[Punch], points: str = 
         nvertices=m.nvertices,
         twins=twins,
     )
+
+
+def penetration_outside(
+    space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, delta: np.ndarray | None = None
+) -> np.ndarray:
+    """Largest penetration [Π]₋ at the mesh vertices OUTSIDE each punch's candidate zone, (npunch,).
+
+    A check after a solve: a positive value means the contact would extend beyond Ω_c (e.g. an
+    automatic zone of a force-controlled punch that travelled far), so the zone must be widened.
+    """
+    from dataclasses import replace
+
+    from .punch import Zone
+
+    sh = space.mesh.shell
+    whole = Zone((sh.x_min, sh.x_max), ((sh.alpha, sh.beta),))
+    everywhere = [replace(p, zone=whole) for p in punches]
+    op = contact_operator(space, everywhere)
+    gap = op.G + op.B @ U
+    if op.D is not None:
+        if delta is None:
+            raise ValueError("force-controlled punches need their travel delta")
+        gap = gap + op.D @ np.asarray(delta, float)
+    out = np.zeros(len(punches))
+    for k, p in enumerate(punches):
+        r = op.rows(k)
+        outside = ~p.zone.contains(op.x[r], op.phi[r], tol=space.mesh._tol())
+        if np.any(outside):
+            out[k] = max(0.0, float(-np.min(gap[r][outside])))
+    return out
