@@ -1,0 +1,47 @@
+"""Contact solvers for the discrete QP of MODEL.md §8 (independent of punches and meshes).
+
+    minimise ½UᵀAU − FᵀU (− Pᵀδ)   subject to   G + BU (+ Dδ) ≥ 0
+
+Public API::
+
+    from shellcontact.solvers import ContactQP, ContactSolution, solve_penalty, solve_active_set, solve_dual, kkt_residuals
+
+    qp = ContactQP(A, F, B, G, weights, D=None, P=None)        # validated on construction
+    solve_penalty(qp, epsilon=1e-6, continuation=None | [eps...], tol=1e-10, max_iterations=50, factorization=None)
+    solve_active_set(qp, tol=1e-10, max_iterations=100, initial_active=None, factorization=None)
+    solve_dual(qp, tol=1e-10, max_iterations=500, factorization=None)
+    kkt_residuals(qp, U, Lambda, delta=None, factorization=None) -> dict
+
+All three return a ``ContactSolution`` (U, Lambda = nodal forces, pressure = Λ/ω, active,
+delta, iterations, residuals, method, history, timings, energy, dual_value, info). Pass
+``factorization=shellcontact.linalg.factorize(A)`` to share one factorisation between solves.
+Every solver works on the Schur complement S = B A⁻¹ Bᵀ, whose columns it computes lazily by
+blocked solves with that single factorisation (``schur.Workspace``): only constraints that
+carry force ever cost a solve. Errors: ``InputError`` (bad arguments, ε ≤ 0),
+``InfeasibleProblemError`` (a ``SolverError``: empty admissible set, lists the constraints),
+``SolverError`` (no convergence; carries ``residuals`` and ``iterations``).
+
+Modules: qp (data, feasibility check), kkt (residuals, duality gap), schur (factorisation and
+S columns), penalty, active_set (PDAS + fallback), dual (MPRGP with exact face solves,
+SMALBE for force control), synthetic (test problems; ``python -m shellcontact.solvers.synthetic``
+prints iteration counts and timings).
+"""
+
+from .active_set import solve_active_set
+from .dual import solve_dual
+from .kkt import dual_value, kkt_residuals, lagrangian
+from .penalty import solve_penalty
+from .qp import ContactQP, ContactSolution, InfeasibleProblemError, check_feasibility
+
+__all__ = [
+    "ContactQP",
+    "ContactSolution",
+    "InfeasibleProblemError",
+    "check_feasibility",
+    "dual_value",
+    "kkt_residuals",
+    "lagrangian",
+    "solve_active_set",
+    "solve_dual",
+    "solve_penalty",
+]

@@ -1,0 +1,119 @@
+"""Exact primal method: primal–dual active set (PDAS) = semismooth Newton on the KKT system
+A U = F + BᵀΛ, Λ − max(0, Λ − c g) = 0 (MODEL.md §8), with one factorisation of A.
+
+Each iteration, for the working set I, solves the equality-constrained QP
+    A U = F + B_IᵀΛ_I,  g_I = G_I + B_I U (+ D_I δ) = 0  (+ D_IᵀΛ_I = −P),  Λ_J = 0,
+through its Schur complement S_II Λ_I (+ D_I δ) = −c0_I on the active rows only
+(``schur.Workspace``: columns of S = B A⁻¹ Bᵀ by blocked solves, cached across iterations,
+so a repeated or nested start costs no new solves). The semismooth Newton update of the
+working set is I ← {i ∈ I : Λ_i > 0} ∪ {j ∉ I : g_j < 0} (independent of c > 0 once g_I = 0).
+
+Globalisation (guaranteed convergence): the update is a deterministic map I ↦ T(I) on the
+finite family of subsets, so the iteration either reaches a fixed point — which is an exact
+KKT point (Λ_I ≥ 0, g_J ≥ 0, g_I = 0, Λ_J = 0) — or revisits a set. Every visited set is
+recorded; at the first revisit (a cycle: possible because S is not an M-matrix for
+fourth-order problems) the method switches to the monotone dual method of ``dual.py`` (MPRGP
+with exact face solves), warm-started from max(Λ, 0), which converges from any start.
+Convergence test: scaled KKT residuals ≤ tol on the Schur-predicted gaps, then the common check
+on a freshly solved U (with refinement steps if round-off in S shows).
+
+Nested iteration / warm start: ``initial_active`` (bool mask or indices, e.g. interpolated from
+a coarser mesh) or ``initial_U`` (I0 = {g(U) ≤ 10⁻⁶·length scale}).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError, SolverError
+from ..linalg import Factorization
+from .dual import dual_core
+from .qp import ContactQP, ContactSolution
+from .schur import Workspace
+
+
+def _check_common(tol: float, max_iterations: int) -> None:
+    if not (np.isfinite(tol) and tol > 0):
+        raise InputError("solver.tolerance", f"must be a positive number, got {tol!r}")
+    if int(max_iterations) != max_iterations or max_iterations < 1:
+        raise InputError("solver.max_iterations", f"must be a positive integer, got {max_iterations!r}")
+
+
+def _as_mask(active: np.ndarray, m: int) -> np.ndarray:
+    a = np.asarray(active)
+    if a.dtype == bool:
+        if a.shape != (m,):
+            raise InputError("solver.initial_active", f"boolean mask must have length {m}, got {a.shape}")
+        return a.copy()
+    mask = np.zeros(m, dtype=bool)
+    idx = a.astype(np.int64).reshape(-1)
+    if idx.size and (idx.min() < 0 or idx.max() >= m):
+        raise InputError("solver.initial_active", f"indices must lie in [0, {m})")
+    mask[idx] = True
+    return mask
+
+
+def solve_active_set(
+    qp: ContactQP,
+    tol: float = 1e-10,
+    max_iterations: int = 100,
+    initial_active: np.ndarray | None = None,
+    factorization: Factorization | None = None,
+    initial_U: np.ndarray | None = None,
+    fallback: bool = True,
+) -> ContactSolution:
+    """PDAS with cycle-detection fallback (module docstring). ``max_iterations`` bounds PDAS
+    iterations plus fallback iterations."""
+    _check_common(tol, max_iterations)
+    ws = Workspace(qp, factorization)
+    live = ws.live
+    k = qp.k
+    rhs2 = -qp.P if k else None
+    if initial_active is not None:
+        I = _as_mask(initial_active, qp.m) & live
+    elif initial_U is not None:
+        I = (qp.gap(np.asarray(initial_U, dtype=float)) <= 1e-6 * ws.lscale) & live
+    else:
+        I = (ws.c0 < 0) & live
+    if k:
+        I = ws.first_contact(I, ws.c0)
+    history: list = []
+    seen: set[bytes] = set()
+    lam = np.zeros(qp.m)
+    delta = np.zeros(k) if k else None
+    for it in range(1, max_iterations + 1):
+        idx = np.flatnonzero(I)
+        lam = np.zeros(qp.m)
+        x, d, singular = ws.face_solve(idx, -ws.c0[idx], rhs2)
+        lam[idx] = x
+        delta = d if k else None
+        g = ws.gap(lam, delta)
+        lam_scale = max(float(np.abs(lam).max(initial=0.0)), 1e-300)
+        v_lam = max(0.0, -float(x.min(initial=0.0))) / lam_scale
+        v_gap = max(0.0, -float(g[live & ~I].min(initial=0.0))) / ws.lscale
+        I_new = (I & (lam > 0)) | (~I & live & (g < 0))
+        if k:
+            I_new = ws.first_contact(I_new, g)
+        history.append({
+            "iteration": it, "active": int(I.sum()), "added": int((I_new & ~I).sum()),
+            "removed": int((I & ~I_new).sum()), "negative_force": v_lam, "penetration": v_gap,
+            "singular": singular, "schur_columns": ws.n_columns,
+        })
+        if v_lam <= tol and v_gap <= tol:
+            return ws.finish_exact(lam, delta, tol, "active-set", it, history, info={"fallback": None})
+        key = np.packbits(I).tobytes()
+        seen.add(key)
+        if np.packbits(I_new).tobytes() in seen or np.array_equal(I_new, I):
+            if not fallback:
+                raise SolverError("active-set: the working set cycles", residuals={
+                    "negative_force": v_lam, "penetration": v_gap}, iterations=it)
+            history[-1]["cycle"] = True
+            lam_f, delta_f, its = dual_core(ws, np.maximum(lam, 0.0), tol, max_iterations - it, history, it0=it)
+            return ws.finish_exact(lam_f, delta_f, tol, "active-set", it + its, history,
+                                   info={"fallback": "dual-mprgp", "fallback_iterations": its})
+        I = I_new
+    raise SolverError(
+        f"active-set: no convergence to tolerance {tol:g}",
+        residuals={"negative_force": v_lam, "penetration": v_gap},
+        iterations=max_iterations,
+    )

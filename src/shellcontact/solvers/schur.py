@@ -1,0 +1,263 @@
+"""One factorisation of A, reused: the Schur complement S = B A⁻¹ Bᵀ column by column.
+
+Every solver here works in the multiplier space. With U0 = A⁻¹F and c0 = G + B U0 (the gap
+with no contact force), any U = A⁻¹(F + BᵀΛ) has the gap g(Λ, δ) = c0 + SΛ + Dδ and the
+energy 𝓔 = −½FᵀU0 + ½ΛᵀSΛ (− Pᵀδ). The columns S[:, J] = B (A⁻¹ B_Jᵀ) are computed lazily —
+only for constraints that ever carry force — by blocked solves with the single factorisation
+(blocks of at most ~3·10⁷ numbers), and cached. A final fresh solve U = A⁻¹(F + BᵀΛ) and the
+KKT check on that U guard against round-off in S; if the check fails, a few refinement steps
+with the true gaps as right-hand side follow (iterative refinement of the face system).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..errors import SolverError
+from ..linalg import Factorization, factorize
+from .kkt import TINY, KKTReport, evaluate
+from .qp import ContactQP, ContactSolution, check_feasibility
+
+
+class Workspace:
+    """Factorisation, U0, c0 and the cache of Schur-complement columns for one QP."""
+
+    def __init__(self, qp: ContactQP, factorization: Factorization | None = None) -> None:
+        self.qp = qp
+        self.t0 = time.perf_counter()
+        self.timings = {"feasibility": 0.0, "factorization": 0.0, "schur": 0.0, "solve": 0.0, "dense": 0.0}
+        self.n_solves = 0
+        t = time.perf_counter()
+        self.live = check_feasibility(qp)
+        self.timings["feasibility"] = time.perf_counter() - t
+        t = time.perf_counter()
+        self.fact = factorization if factorization is not None else factorize(qp.A)
+        self.timings["factorization"] = time.perf_counter() - t
+        self.U0 = self.solve(qp.F)
+        self.BU0 = qp.B @ self.U0
+        self.c0 = qp.G + self.BU0
+        self.BT = qp.B.T.tocsc()
+        m = qp.m
+        self._store = np.empty((m, min(m, 16)))
+        self._ncol = 0
+        self._pos = np.full(m, -1, dtype=np.int64)
+        gmax = float(np.abs(qp.G).max()) if m else 0.0
+        self.lscale = max(gmax, float(np.abs(self.BU0).max()) if m else 0.0, TINY)
+
+    # -- linear algebra -------------------------------------------------------------------
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        t = time.perf_counter()
+        x = self.fact.solve(b)
+        self.timings["solve"] += time.perf_counter() - t
+        self.n_solves += 1 if b.ndim == 1 else b.shape[1]
+        return x
+
+    def ensure(self, idx: np.ndarray) -> None:
+        idx = np.asarray(idx, dtype=np.int64)
+        miss = np.unique(idx[self._pos[idx] < 0])
+        if miss.size == 0:
+            return
+        t = time.perf_counter()
+        need = self._ncol + miss.size
+        if need > self._store.shape[1]:
+            new = np.empty((self.qp.m, min(self.qp.m, max(need, 2 * self._store.shape[1]))))
+            new[:, : self._ncol] = self._store[:, : self._ncol]
+            self._store = new
+        n = self.qp.n
+        chunk = int(max(1, min(512, 3e7 // n)))
+        for s in range(0, miss.size, chunk):
+            cols = miss[s : s + chunk]
+            R = self.BT[:, cols].toarray()
+            Z = self.fact.solve(R)
+            self.n_solves += cols.size
+            self._store[:, self._ncol : self._ncol + cols.size] = self.qp.B @ Z
+            self._pos[cols] = np.arange(self._ncol, self._ncol + cols.size)
+            self._ncol += cols.size
+        # keep the computed block exactly symmetric: S_KK is used both in face solves
+        # (Cholesky needs symmetry) and in gap updates; an O(cond·ε_mach) asymmetry between
+        # them would be amplified by ω/ε in the penalty method
+        known = np.flatnonzero(self._pos >= 0)
+        pos = self._pos[known]
+        M = self._store[known][:, pos]
+        self._store[np.ix_(known, pos)] = 0.5 * (M + M.T)
+        self.timings["schur"] += time.perf_counter() - t
+
+    def columns(self, idx: np.ndarray) -> np.ndarray:
+        """S[:, idx] (m × len(idx))."""
+        idx = np.asarray(idx, dtype=np.int64)
+        self.ensure(idx)
+        return self._store[:, self._pos[idx]]
+
+    def block(self, idx: np.ndarray) -> np.ndarray:
+        """S[idx][:, idx], symmetrised."""
+        return self.columns(idx)[idx]
+
+    def Sx(self, x: np.ndarray) -> np.ndarray:
+        supp = np.flatnonzero(x)
+        if supp.size == 0:
+            return np.zeros(self.qp.m)
+        return self.columns(supp) @ x[supp]
+
+    def known_diagonal(self) -> np.ndarray:
+        """Diagonal entries S_ii of the columns computed so far."""
+        idx = np.flatnonzero(self._pos >= 0)
+        return self._store[idx, self._pos[idx]]
+
+    @property
+    def n_columns(self) -> int:
+        return self._ncol
+
+    def gap(self, lam: np.ndarray, delta: np.ndarray | None) -> np.ndarray:
+        """Predicted gap c0 + SΛ + Dδ."""
+        g = self.c0 + self.Sx(lam)
+        if self.qp.k and delta is not None:
+            g = g + self.qp.D @ delta
+        return g
+
+    def face_solve(
+        self,
+        idx: np.ndarray,
+        rhs: np.ndarray,
+        rhs2: np.ndarray | None = None,
+        shift: np.ndarray | None = None,
+        H: np.ndarray | None = None,
+        use_D: bool = True,
+    ) -> tuple[np.ndarray, np.ndarray | None, bool]:
+        """Solve (S_II + diag(shift)) x + D_I δ = rhs, D_Iᵀ x = rhs2 (the last only under force
+        control). Cholesky of the dense block; least squares if it is singular (dependent rows).
+        Returns x, δ, and whether the block was singular."""
+        qp = self.qp
+        if H is None:
+            H = self.block(idx)
+            if shift is not None:
+                H[np.diag_indices_from(H)] += shift
+        t = time.perf_counter()
+        singular = False
+        try:
+            if idx.size == 0:
+                raise np.linalg.LinAlgError
+            cf = sla.cho_factor(H, lower=True, check_finite=False)
+            d = np.diag(cf[0])
+            if d.min() <= 1e-7 * d.max():
+                raise np.linalg.LinAlgError
+        except (np.linalg.LinAlgError, sla.LinAlgError):
+            cf = None
+            singular = idx.size > 0
+        if qp.k == 0 or not use_D:
+            if cf is not None:
+                x = sla.cho_solve(cf, rhs, check_finite=False)
+            else:
+                x = sla.lstsq(H, rhs, check_finite=False)[0] if idx.size else np.zeros(0)
+            self.timings["dense"] += time.perf_counter() - t
+            return x, None, singular
+        DI = qp.D[idx]
+        if cf is not None:
+            X = sla.cho_solve(cf, np.column_stack([rhs, DI]), check_finite=False)
+            Sd = DI.T @ X[:, 1:]
+            try:
+                delta = np.linalg.solve(Sd, DI.T @ X[:, 0] - rhs2)
+            except np.linalg.LinAlgError:
+                delta = np.linalg.lstsq(Sd, DI.T @ X[:, 0] - rhs2, rcond=None)[0]
+                singular = True
+            x = X[:, 0] - X[:, 1:] @ delta
+        else:
+            k = qp.k
+            K = np.block([[H, DI], [DI.T, np.zeros((k, k))]])
+            sol = sla.lstsq(K, np.concatenate([rhs, rhs2]), check_finite=False)[0]
+            x, delta = sol[: idx.size], sol[idx.size :]
+        self.timings["dense"] += time.perf_counter() - t
+        return x, delta, singular
+
+    def first_contact(self, mask: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """Force control: add to ``mask`` the first vertex each loaded punch would touch if it
+        has none in the set (else δ_j is undetermined on the face)."""
+        qp = self.qp
+        mask = mask.copy()
+        for j in range(qp.k):
+            if qp.P[j] == 0:
+                continue
+            s = np.sign(qp.P[j])
+            ahead = self.live & (s * qp.D[:, j] < 0)
+            if np.any(mask & ahead):
+                continue
+            cand = np.flatnonzero(ahead)
+            t = g[cand] / (-s * qp.D[cand, j])
+            mask[cand[np.argmin(t)]] = True
+        return mask
+
+    # -- result ---------------------------------------------------------------------------
+    def result(
+        self,
+        U: np.ndarray,
+        lam: np.ndarray,
+        delta: np.ndarray | None,
+        active: np.ndarray,
+        rep: KKTReport,
+        method: str,
+        iterations: int,
+        history: list,
+        info: dict | None = None,
+    ) -> ContactSolution:
+        tim = dict(self.timings)
+        tim["total"] = time.perf_counter() - self.t0
+        tim["n_solves"] = float(self.n_solves)
+        tim["schur_columns"] = float(self._ncol)
+        inf = {"gap": rep.gap, "scaled_residuals": rep.scaled}
+        inf.update(info or {})
+        return ContactSolution(
+            U=U,
+            Lambda=lam,
+            pressure=lam / self.qp.weights,
+            active=active,
+            delta=delta,
+            iterations=iterations,
+            residuals=rep.residuals,
+            method=method,
+            history=history,
+            timings=tim,
+            energy=rep.energy,
+            dual_value=rep.dual_value,
+            info=inf,
+        )
+
+    def finish_exact(
+        self,
+        lam: np.ndarray,
+        delta: np.ndarray | None,
+        tol: float,
+        method: str,
+        iterations: int,
+        history: list,
+        refine: int = 3,
+        info: dict | None = None,
+    ) -> ContactSolution:
+        """Fresh U = A⁻¹(F + BᵀΛ), KKT check at ``tol``; refine on the face if round-off in S
+        spoils it; raise SolverError with the residuals if it still fails."""
+        qp = self.qp
+        lam = np.maximum(lam, 0.0)
+        for step in range(refine + 1):
+            U = self.solve(qp.F + qp.B.T @ lam)
+            rep = evaluate(qp, U, lam, delta, self.fact)
+            self.n_solves += 1
+            if rep.converged(tol):
+                break
+            if step == refine:
+                raise SolverError(
+                    f"{method}: KKT residuals above tolerance {tol:g} after refinement "
+                    f"(worst: {rep.worst()})",
+                    residuals=rep.residuals,
+                    iterations=iterations,
+                )
+            idx = np.flatnonzero(lam > 0)
+            rhs2 = None if qp.k == 0 else -(qp.D.T @ lam + qp.P)
+            dx, dd, _ = self.face_solve(idx, -rep.gap[idx], rhs2)
+            lam = lam.copy()
+            lam[idx] = np.maximum(lam[idx] + dx, 0.0)
+            if dd is not None:
+                delta = delta + dd
+            history.append({"iteration": iterations, "refinement": step + 1, "worst": rep.worst(),
+                            "worst_value": rep.scaled[rep.worst()]})
+        return self.result(U, lam, delta, lam > 0, rep, method, iterations, history, info)
