@@ -180,3 +180,26 @@ def test_info(tmp_path: Path) -> None:
     r = cli("info", cwd=tmp_path)
     assert "shellcontact" in r.stdout and "linear-algebra backends" in r.stdout and "numpy" in r.stdout
     assert "OMP_NUM_THREADS=1" in r.stdout
+
+
+def test_contact_sweep_force_indentation(tmp_path: Path) -> None:
+    panel = str(ROOT / "examples" / "paper_panel.toml")
+    args = ["sweep", panel, "--set", "mesh.nx=6", "--set", "mesh.nphi=6", "--param", "punch.0.indentation"]
+    args += ["--values", "1e-3,2e-3,3e-3", "-o", "fi"]
+    cli(*args, cwd=tmp_path)
+    text = _csv(tmp_path / "fi" / "sweep.csv")
+    header = text.splitlines()[0].split(",")
+    for col in ("punch.0.indentation", "energy", "max_abs_w", "force", "normal_force", "area", "peak_pressure"):
+        assert col in header, col
+    rows = [dict(zip(header, ln.split(","))) for ln in text.splitlines()[1:]]
+    force = [float(r["force"]) for r in rows]
+    assert 0 < force[0] < force[1] < force[2]  # more indentation, more force
+    assert (tmp_path / "fi" / "force_indentation.png").stat().st_size > 1000
+    (tmp_path / "fi" / "steps" / "step-0002.json").unlink()
+    r = cli(*args, cwd=tmp_path)
+    assert "resumed: 2 of 3" in r.stdout
+    resumed = [dict(zip(header, ln.split(","))) for ln in _csv(tmp_path / "fi" / "sweep.csv").splitlines()[1:]]
+    # the last step is solved again, now without a warm start: the same solution up to the solver tolerance
+    for a, b in zip(rows, resumed):
+        for k in ("energy", "force", "area", "peak_pressure"):
+            assert float(b[k]) == pytest.approx(float(a[k]), rel=1e-8), k

@@ -268,7 +268,7 @@ def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | No
     n = len(panels)
     ncol = min(n, 3)
     nrow = math.ceil(n / ncol)
-    fig = Figure(figsize=(4.4 * ncol, 3.5 * nrow))
+    fig = Figure(figsize=(4.4 * ncol, 3.5 * nrow), layout="constrained")
     for k, (label, cols) in enumerate(panels):
         ax = fig.add_subplot(nrow, ncol, k + 1)
         for c in cols:
