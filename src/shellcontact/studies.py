@@ -419,7 +419,8 @@ def convergence_table(res: ConvergenceResult) -> str:
     """A fixed-width text table of a convergence study."""
     q = res.quantity
     head = ("level", "dofs", "h", "energy", q, "err energy", "rate", f"err {q}", "rate")
-    lines = ["  ".join(f"{h:>12}" for h in head)]
+    widths = [max(12, len(h)) for h in head]
+    lines = ["  ".join(f"{h:>{w}}" for h, w in zip(head, widths))]
 
     def f(v: Any) -> str:
         return "—" if v is None else (f"{v:.6g}" if isinstance(v, float) else str(v))
@@ -436,5 +437,5 @@ def convergence_table(res: ConvergenceResult) -> str:
             r[f"error_{q}"],
             r[f"rate_{q}"],
         )
-        lines.append("  ".join(f"{f(v):>12}" for v in vals))
+        lines.append("  ".join(f"{f(v):>{w}}" for v, w in zip(vals, widths)))
     return "\n".join(lines)
