@@ -23,11 +23,11 @@ import numpy as np
 
 from . import model
 from .case import Case, build_mesh
-from .contact import ContactOperator, contact_operator
+from .contact import ContactOperator, contact_operator, penetration_outside
 from .errors import InputError
 from .linalg import factorize
 from .loads import load_vector
-from .punch import Punch, fitted_lines, punches_from_case
+from .punch import Punch, fitted_mesh, punches_from_case
 from .results import ShellSolution
 from .solvers import ContactQP, ContactSolution, solve_active_set, solve_dual, solve_penalty
 from .spaces import ShellSpace
@@ -122,13 +122,25 @@ class ContactResult:
     active: np.ndarray  # bool
     gap: np.ndarray  # G + B U (+ D δ)
     delta: np.ndarray | None  # force-control travel
+    outside: np.ndarray  # per punch: largest penetration at vertices outside its candidate zone
 
     @property
     def pressure(self) -> np.ndarray:
         return self.operator.pressure(self.Lambda)
 
     def summary(self) -> list[dict]:
-        return self.operator.summary(self.Lambda, self.active, self.delta)
+        out = self.operator.summary(self.Lambda, self.active, self.delta)
+        for entry, pen in zip(out, self.outside):
+            entry["penetration_outside_zone"] = float(pen)
+        return out
+
+    def warnings(self) -> list[str]:
+        """Contact beyond a candidate zone: the zone was too small and must be widened."""
+        tol = 1e-8 * max(float(np.max(np.abs(self.operator.G), initial=0.0)), 1e-300)
+        return [
+            f"punch.{k}: the shell penetrates the punch by {pen:.3e} outside its candidate zone; "
+            f"widen punch.{k}.zone" for k, pen in enumerate(self.outside) if pen > tol
+        ]
 
 
 @dataclass
@@ -162,6 +174,7 @@ class Result:
             out["iterations"] = int(cs.iterations)
             if "penalty" in self.info:
                 out["penalty"] = self.info["penalty"]
+            out["warnings"] = self.contact.warnings()
         out["backend"] = self.info.get("backend")
         out["timings"] = dict(self.timings)
         return out
@@ -189,8 +202,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     timer = Timer()
     with timer.stage("mesh"):
         punches = punches_from_case(case.punches, case.shell)
-        extra_x, extra_phi = fitted_lines(punches, case.shell) if punches else ([], [])
-        mesh = build_mesh(case, extra_x, extra_phi)
+        mesh = fitted_mesh(case, punches) if punches else build_mesh(case)
         space = ShellSpace(mesh)
     with timer.stage("assembly"):
         A = model.stiffness(space)
@@ -233,7 +245,8 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     info["solver_timings"] = dict(cs.timings)
     Lam = np.asarray(cs.Lambda, float)
     contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
-                            gap=op.gap(U, cs.delta), delta=cs.delta)
+                            gap=op.gap(U, cs.delta), delta=cs.delta,
+                            outside=penetration_outside(space, punches, U, cs.delta))
     sol = ShellSolution(space=space, U=U, A=A, F=F, timings=timings, extra_forces=op.B.T @ Lam)
     return Result(case=case, solution=sol, timings=timings, info=info, contact=contact, punches=punches)
 
