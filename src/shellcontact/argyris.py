@@ -77,6 +77,30 @@ class ArgyrisBasis:
 
     @classmethod
     def build(cls, p: np.ndarray, t: np.ndarray, normals: np.ndarray) -> ArgyrisBasis:
+        """Coefficients by the reference-element transformation (no per-element inverse).
+
+        The functions ψ_j = ψ̂_j ∘ F⁻¹ (ψ̂ the reference basis for reference dofs: values,
+        reference gradient and Hessian at the vertices, reference normal derivative at the
+        edge midpoints) span P5 on the element. The physical dofs of the ψ_j form a sparse
+        matrix V: identity for values, Jᴵᵀ-blocks for gradients and Hessians, and, because
+        a physical normal is a mix of reference normal and tangent, a row per edge with the
+        tangential derivative of the endpoint data (Kirby 2018; Domínguez & Sayas 2008).
+        V⁻¹ is written down block-wise, and the physical basis is S Â V⁻¹, where Â holds the
+        reference basis in reference monomials and S re-expands reference monomials in the
+        element's scaled monomials. Same result as build_vandermonde to rounding.
+        """
+        verts = p[:, t].transpose(2, 1, 0)  # (nel, 3, 2)
+        centre = verts.mean(axis=1)
+        h = np.max(np.linalg.norm(verts - np.roll(verts, 1, axis=1), axis=2), axis=1)
+        coef = np.empty((t.shape[1], 21, 21))
+        for start in range(0, t.shape[1], 2048):  # chunks that stay in cache
+            sl = slice(start, min(start + 2048, t.shape[1]))
+            coef[sl] = _transformed_coefficients(verts[sl], centre[sl], h[sl], normals[sl])
+        return cls(centre=centre, h=h, coef=coef)
+
+    @classmethod
+    def build_vandermonde(cls, p: np.ndarray, t: np.ndarray, normals: np.ndarray) -> ArgyrisBasis:
+        """Coefficients by inverting each element's 21×21 dof matrix (the direct construction)."""
         verts = p[:, t].transpose(2, 1, 0)  # (nel, 3, 2)
         centre = verts.mean(axis=1)
         h = np.max(np.linalg.norm(verts - np.roll(verts, 1, axis=1), axis=2), axis=1)
@@ -115,3 +139,121 @@ class ArgyrisBasis:
             val = np.einsum("nqm,nmb->bnq", m, C, optimize=True)
             out[name] = val / h[None, :, None] ** (dx + dy)
         return out
+
+
+# -- the reference element and the per-element transformation -----------------------------------
+
+_REF_VERTS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+
+
+def _reference_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Â (21 monomials × 21 reference basis functions), τ (3 edges × 21), edge normals and tangents."""
+    tang = np.array([_REF_VERTS[j] - _REF_VERTS[i] for i, j in EDGE_VERTICES])
+    tang /= np.linalg.norm(tang, axis=1)[:, None]
+    nrm = np.stack([tang[:, 1], -tang[:, 0]], axis=1)
+    V = np.empty((21, 21))
+    derivs = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+    for v in range(3):
+        for k, (dx, dy) in enumerate(derivs):
+            V[6 * v + k] = monomials(_REF_VERTS[v, 0], _REF_VERTS[v, 1], dx, dy)
+    mids = np.array([0.5 * (_REF_VERTS[i] + _REF_VERTS[j]) for i, j in EDGE_VERTICES])
+    grad = [(monomials(m[0], m[1], 1, 0), monomials(m[0], m[1], 0, 1)) for m in mids]
+    for k in range(3):
+        V[18 + k] = nrm[k, 0] * grad[k][0] + nrm[k, 1] * grad[k][1]
+    A = np.linalg.inv(V)
+    tau = np.array([(tang[k, 0] * grad[k][0] + tang[k, 1] * grad[k][1]) @ A for k in range(3)])
+    tau[np.abs(tau) < 1e-12 * np.abs(tau).max()] = 0.0  # exact zeros (edge dofs, far vertex)
+    return A, tau, nrm, tang
+
+
+_REF_A, _REF_TAU, _REF_N, _REF_T = _reference_tables()
+
+
+def _shift_index(dx: int, dy: int) -> np.ndarray:
+    """For each of the 21 monomials, the index of the monomial divided by ξ^dx η^dy (21 if none)."""
+    lookup = {tuple(e): n for n, e in enumerate(EXPONENTS.tolist())}
+    return np.array([lookup.get((px - dx, py - dy), 21) for px, py in EXPONENTS.tolist()])
+
+
+_SHIFT_X, _SHIFT_Y = _shift_index(1, 0), _shift_index(0, 1)
+
+
+def affine_maps(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """J (n, 2, 2) with J[e, i, a] = ∂x_i/∂x̂_a, its inverse K[e, a, i] = ∂x̂_a/∂x_i, and det J."""
+    d1, d2 = verts[:, 1] - verts[:, 0], verts[:, 2] - verts[:, 0]
+    J = np.stack([d1, d2], axis=2)
+    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    K = np.stack([np.stack([d2[:, 1], -d2[:, 0]], 1), np.stack([-d1[:, 1], d1[:, 0]], 1)], 1) / det[:, None, None]
+    return J, K, det
+
+
+def dof_transformation(verts: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """V⁻¹ (n, 21, 21): the physical basis is φ_i = Σ_j V⁻¹[j, i] ψ̂_j ∘ F⁻¹ (ψ̂ the reference basis).
+
+    V[k, j] = L_k(ψ̂_j ∘ F⁻¹) for the physical dofs L_k: vertex blocks [1] ⊕ Kᵀ ⊕ (Hessian
+    transform), and for each edge α_k (reference normal dof) + β_k (tangential derivative of
+    the endpoint data, table τ), with g = K n = α n̂ + β t̂. Its inverse is written down.
+    """
+    n = verts.shape[0]
+    J, K, _ = affine_maps(verts)
+    Vt = np.zeros((21, 21, n))  # transposed layout: every entry a contiguous vector
+    hs = ((0, 0), (0, 1), (1, 1))
+    for v in range(3):
+        b = 6 * v
+        Vt[b, b] = 1.0
+        for a_ in range(2):
+            for i in range(2):
+                Vt[b + 1 + a_, b + 1 + i] = J[:, i, a_]
+        for r, (a_, b_) in enumerate(hs):
+            Vt[b + 3 + r, b + 3] = J[:, 0, a_] * J[:, 0, b_]
+            Vt[b + 3 + r, b + 4] = J[:, 0, a_] * J[:, 1, b_] + J[:, 1, a_] * J[:, 0, b_]
+            Vt[b + 3 + r, b + 5] = J[:, 1, a_] * J[:, 1, b_]
+    g = np.einsum("eai,eki->eka", K, normals)  # (n, 3, 2)
+    alpha = np.einsum("eka,ka->ek", g, _REF_N)
+    beta = np.einsum("eka,ka->ek", g, _REF_T)
+    for k in range(3):
+        Vt[18 + k, 18 + k] = 1.0 / alpha[:, k]
+        Vt[18 + k, :18] = -(beta[:, k] / alpha[:, k]) * np.tensordot(_REF_TAU[k, :18], Vt[:18, :18], axes=(0, 0))
+    return np.ascontiguousarray(Vt.transpose(2, 0, 1))
+
+
+def reference_derivatives(X: np.ndarray) -> dict[tuple[int, int], np.ndarray]:
+    """∂^dx ∂^dy of the 21 reference basis functions ψ̂_j at reference points X (2, nq): (21, nq) each."""
+    out = {}
+    for dx, dy in ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)):
+        out[(dx, dy)] = (monomials(X[0], X[1], dx, dy) @ _REF_A).T
+    return out
+
+
+def _transformed_coefficients(verts: np.ndarray, centre: np.ndarray, h: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """coef (n, 21 scaled monomials, 21 physical dofs) of ArgyrisBasis, by the reference transformation."""
+    n = verts.shape[0]
+    _, K, _ = affine_maps(verts)
+    Vi = dof_transformation(verts, normals)
+    # S: reference monomials x̂^p ŷ^q in the scaled monomials ξ = (x − c)/h
+    off = centre - verts[:, 0]
+    aff = []  # x̂ and ŷ as c0 + c1 ξ + c2 η
+    for a_ in range(2):
+        aff.append((K[:, a_, 0] * off[:, 0] + K[:, a_, 1] * off[:, 1], K[:, a_, 0] * h, K[:, a_, 1] * h))
+    S = np.zeros((21, 21, n))  # S[col, row] = coefficient of scaled monomial row in reference monomial col
+    S[0, 0] = 1.0
+    for col, (px, py) in enumerate(EXPONENTS.tolist()):
+        if col == 0:
+            continue
+        if px > 0:
+            src, (c0, c1, c2) = _REF_INDEX[(px - 1, py)], aff[0]
+        else:
+            src, (c0, c1, c2) = _REF_INDEX[(px, py - 1)], aff[1]
+        for row in range(_NMONO_DEG[px + py]):  # the monomials of degree ≤ px + py
+            out = S[col, row]
+            np.multiply(c0, S[src, row], out=out)
+            if _SHIFT_X[row] < 21:
+                out += c1 * S[src, _SHIFT_X[row]]
+            if _SHIFT_Y[row] < 21:
+                out += c2 * S[src, _SHIFT_Y[row]]
+    AV = np.matmul(_REF_A, Vi)
+    return np.matmul(np.ascontiguousarray(S.transpose(2, 1, 0)), AV)
+
+
+_REF_INDEX = {tuple(e): n for n, e in enumerate(EXPONENTS.tolist())}
+_NMONO_DEG = [(d + 1) * (d + 2) // 2 for d in range(6)]  # number of monomials of degree ≤ d
