@@ -203,3 +203,20 @@ def test_contact_sweep_force_indentation(tmp_path: Path) -> None:
     for a, b in zip(rows, resumed):
         for k in ("energy", "force", "area", "peak_pressure"):
             assert float(b[k]) == pytest.approx(float(a[k]), rel=1e-8), k
+
+
+def test_demo(tmp_path: Path) -> None:
+    """``make demo`` runs ``shellcontact demo -o demo-out --force``: three methods, one table, one directory."""
+    (tmp_path / "demo-out").mkdir()
+    (tmp_path / "demo-out" / "old.txt").write_text("x")
+    r = cli("demo", "-o", "demo-out", cwd=tmp_path, check=False)
+    assert r.returncode == 2 and "use --force" in r.stderr and "Traceback" not in r.stderr
+    r = cli("demo", "-o", "demo-out", "--force", cwd=tmp_path)
+    comparison = json.loads((tmp_path / "demo-out" / "comparison.json").read_text())
+    methods = [row["method"] for row in comparison["rows"]]
+    assert sorted(methods) == ["active-set", "dual", "penalty"]
+    for m in methods:
+        assert m in r.stdout
+        s = json.loads((tmp_path / "demo-out" / m / "summary.json").read_text())
+        assert s["contact"][0]["force_magnitude"] > 0 and (tmp_path / "demo-out" / m / "fields.vtu").is_file()
+    assert (tmp_path / "demo-out" / "active-set" / "report.html").is_file()
