@@ -45,6 +45,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.optimize as sopt
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.polynomial import Polynomial
@@ -251,6 +252,23 @@ def bisect(nodes: np.ndarray, times: int = 1) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 # reference shape functions
 # --------------------------------------------------------------------------------------------
+def _gauss01(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss–Legendre points and weights on [0, 1] in extended precision (Newton-polished)."""
+    x = leg.leggauss(n)[0].astype(np.longdouble)
+    for _ in range(3):
+        p0, p1 = np.ones_like(x), x.copy()
+        for k in range(2, n + 1):
+            p0, p1 = p1, ((2 * k - 1) * x * p1 - (k - 1) * p0) / k
+        dp = n * (x * p1 - p0) / (x * x - 1)
+        x -= p1 / dp
+    p0, p1 = np.ones_like(x), x.copy()
+    for k in range(2, n + 1):
+        p0, p1 = p1, ((2 * k - 1) * x * p1 - (k - 1) * p0) / k
+    dp = n * (x * p1 - p0) / (x * x - 1)
+    w = 2 / ((1 - x * x) * dp * dp)
+    return (x + 1) / 2, w / 2
+
+
 def _shape_polys(pw: int, pu: int) -> tuple[list[Polynomial], list[Polynomial]]:
     xi = Polynomial([0.0, 1.0])
     one = Polynomial([1.0])
@@ -430,6 +448,7 @@ def solve(
     tol: float = 1e-9,
     initial_active: Callable[[np.ndarray], np.ndarray] | None = None,
     w_band: tuple[float, float, float] | None = None,
+    debug: bool = False,
 ) -> AxisymSolution:
     """Solve the axisymmetric problem on the mesh ``nodes`` (x0 = nodes[0], x1 = nodes[-1]).
 
@@ -462,30 +481,34 @@ def solve(
     # ---- reference values at Gauss points
     wpoly, upoly = _shape_polys(pw, pu)
     nq = pw + 3
-    gx, gw = leg.leggauss(nq)
-    xi, wq = 0.5 * (gx + 1), 0.5 * gw
+    xi, wq = _gauss01(nq)  # extended precision: the stiffness must be accurate to eps·(βh)⁴ (see _Refined)
+    hl = np.diff(nodes.astype(np.longdouble))
+    sl = scale.astype(np.longdouble)
+    sl[:, nu + 1] = hl
+    sl[:, nu + 3] = hl
     W0 = np.stack([p(xi) for p in wpoly], -1)  # (nq, nw)
     W2 = np.stack([p.deriv(2)(xi) for p in wpoly], -1)
     U1 = np.stack([p.deriv(1)(xi) for p in upoly], -1)
     # strain operator S (ne, nq, 4, nu+nw): rows ε11, ε22, κ11, κ22
-    S = np.zeros((ne, nq, 4, nu + nw))
-    sw = scale[:, None, nu:]
-    S[:, :, 0, :nu] = U1[None] / h[:, None, None]
+    S = np.zeros((ne, nq, 4, nu + nw), dtype=np.longdouble)
+    sw = sl[:, None, nu:]
+    S[:, :, 0, :nu] = U1[None] / hl[:, None, None]
     S[:, :, 1, nu:] = W0[None] * sw / a
-    S[:, :, 2, nu:] = -W2[None] * sw / h[:, None, None] ** 2
+    S[:, :, 2, nu:] = -W2[None] * sw / hl[:, None, None] ** 2
     S[:, :, 3, nu:] = -W0[None] * sw / a**2
-    C = np.zeros((4, 4))
+    C = np.zeros((4, 4), dtype=np.longdouble)
     C[:2, :2] = shell.B * np.array([[1, mu], [mu, 1]])
     C[2:, 2:] = shell.D * np.array([[1, mu], [mu, 1]])
-    Ke = np.einsum("eq,eqia,ij,eqjb->eab", h[:, None] * wq[None], S, C, S)
+    CS = np.einsum("ij,eqjb->eqib", C, S)
+    Ke = np.einsum("eq,eqia,eqib->eab", hl[:, None] * wq[None], S, CS)
     rows = np.repeat(dofmap, nu + nw, axis=1).ravel()
     cols = np.tile(dofmap, (1, nu + nw)).ravel()
     A = sp.csr_matrix((Ke.ravel(), (rows, cols)), shape=(ndof, ndof))
     # ---- loads
-    F = np.zeros(ndof)
-    xq = nodes[:-1, None] + h[:, None] * xi[None]
+    F = np.zeros(ndof, dtype=np.longdouble)
+    xq = nodes[:-1, None] + hl[:, None] * xi[None]
     qv = pressure(xq) if callable(pressure) else np.full_like(xq, float(pressure))
-    Fe = np.einsum("eq,eq,qa,ea->ea", h[:, None] * wq[None], qv, W0, scale[:, nu:])
+    Fe = np.einsum("eq,eq,qa,ea->ea", hl[:, None] * wq[None], qv, W0, sl[:, nu:])
     np.add.at(F, dofmap[:, nu:], Fe)
     for xr, P in rings:
         i = int(np.argmin(np.abs(nodes - xr)))
@@ -503,7 +526,7 @@ def solve(
             fixed += [i, nn + 2 * i + 1]
     if 0 not in fixed and nn - 1 not in fixed:
         fixed.append(0)  # axial rigid motion: pin u(x0)
-    g0 = np.zeros(ndof)
+    g0 = np.zeros(ndof, dtype=np.longdouble)
     band_values = np.zeros(0, int)
     if w_band is not None:  # w ≡ value on [x_lo, x_hi] (a continuous bilateral contact band)
         xlo, xhi, wval = w_band
@@ -518,7 +541,7 @@ def solve(
     free = np.setdiff1d(np.arange(ndof), fixed)
     F0 = F - A @ g0
     Fr = F0[free]
-    lu = _Refined(A[free][:, free].tocsc())
+    lu = _Refined(A[free][:, free])
     # ---- contact operator (sparse rows in the full dof numbering)
     zeta = (1.0 if side == "outer" else -1.0) * shell.thickness / 2
     cx, cp, G, grad, cnode = [], [], [], [], []
@@ -564,20 +587,19 @@ def solve(
             for d, cval in ((cnode[i], -zx / zr), (wdof[i] + 1, zeta * zx / zr)):
                 if pos[d] >= 0 and cval != 0.0:
                     T[wdof[i], pos[d]] = cval
-        T = T.tocsr()
-        K = (T.T @ A @ T).tocsc()
+        T = T.tocsr().astype(np.longdouble)
+        K = T.T @ A @ T
         Um = _Refined(K).solve(T.T @ (F - A @ g))
         U = T @ Um + g
         r = A @ U - F
         lam = np.zeros(m)
-        lam[act] = r[wdof[act]] / grad[act, 1]
+        lam[act] = (r[wdof[act]] / grad[act, 1]).astype(float)
         return U, lam
 
     iterations, method = 0, "linear"
     if m:
         if initial_active is None:
-            U, lam = solve_active(np.zeros(m, bool))
-            act = G + Bfull @ U < 0
+            act = _dual_nnls_guess(lu, Bfull[:, free], G, Fr)
         else:
             act = np.asarray(initial_active(cx), bool)
         gtol = 1e-13 * max(np.max(np.abs(G)), 1e-300)
@@ -586,7 +608,7 @@ def solve(
         for it in range(1, 10 * m + 20):
             iterations = it
             U, lam = solve_active(act)
-            gap = G + Bfull @ U
+            gap = (G + Bfull @ U).astype(float)
             ltol = 1e-13 * max(np.max(np.abs(lam)), 1e-300)
             drop, add = act & (lam < -ltol), ~act & (gap < -gtol)
             if not drop.any() and not add.any():
@@ -600,6 +622,8 @@ def solve(
                     new[np.argmin(np.where(drop, lam, np.inf))] = False
                 else:
                     new[np.argmin(np.where(add, gap, np.inf))] = True
+            if debug:
+                print(it, method, int(act.sum()), np.flatnonzero(drop)[:5], np.flatnonzero(add)[:5])
             act = new
         else:
             raise RuntimeError(f"axisymmetric oracle: active set did not settle in {it} iterations")
@@ -623,6 +647,7 @@ def solve(
             "complementarity": float(np.max(np.abs(lam * gap)) / (lscale * gscale)),
         }
     energy = float(0.5 * U @ (A @ U) - F @ U)
+    U = U.astype(float)
     sol = AxisymSolution(shell, nodes, U, energy, dofmap, scale, pw, pu, iterations=iterations, method=method)
     # reaction of the band: the work of the residual on a unit radial translation of the band
     sol.band_force = float(np.sum((A @ U - F)[band_values]))
@@ -636,17 +661,35 @@ def solve(
     return sol
 
 
-class _Refined:
-    """Sparse LU of the reduced stiffness with two steps of iterative refinement (cond(A) ~ h⁻⁴)."""
+def _dual_nnls_guess(lu: _Refined, Bf: sp.csr_matrix, G: np.ndarray, Fr: np.ndarray) -> np.ndarray:
+    """Active-set guess from the dual QP  min ½ΛᵀSΛ − hᵀΛ, Λ ≥ 0  (S = B A⁻¹ Bᵀ, h = −(G + B A⁻¹F)) solved by
+    Lawson–Hanson NNLS: finite and robust where a primal–dual active set creeps one node per iteration
+    (fourth-order obstacle problems). The exact solution is then polished by the active-set loop."""
+    X = lu.solve(np.asarray(Bf.T.todense(), dtype=np.longdouble))
+    S = np.asarray(Bf @ X, dtype=float)
+    S = 0.5 * (S + S.T)
+    h = -np.asarray(G + Bf @ lu.solve(Fr), dtype=float)
+    w, V = np.linalg.eigh(S)
+    w = np.maximum(w, w.max() * 1e-15)
+    R = (V * np.sqrt(w)).T  # S ≈ RᵀR
+    lam, _ = sopt.nnls(R, V.T @ h / np.sqrt(w), maxiter=20 * len(h))
+    return lam > 0
 
-    def __init__(self, A: sp.csc_matrix) -> None:
-        self.A = A
-        self.lu = spla.splu(A)
+
+class _Refined:
+    """Sparse LU of an SPD stiffness (cond ~ (βh)⁻⁴) with mixed-precision iterative refinement: the
+    residual is accumulated in extended precision (np.longdouble), so the forward error is ~ eps_64 as long
+    as cond · eps_64 < 1, instead of cond · eps_64."""
+
+    def __init__(self, A: sp.spmatrix) -> None:
+        self.A = sp.csr_matrix(A, dtype=np.longdouble)
+        self.lu = spla.splu(sp.csc_matrix(self.A, dtype=float))
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        x = self.lu.solve(b)
-        for _ in range(2):
-            x = x + self.lu.solve(b - self.A @ x)
+        bl = np.asarray(b, dtype=np.longdouble)
+        x = self.lu.solve(np.asarray(b, dtype=float)).astype(np.longdouble)
+        for _ in range(4):
+            x += self.lu.solve(np.asarray(bl - self.A @ x, dtype=float))
         return x
 
 
