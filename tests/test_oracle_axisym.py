@@ -109,8 +109,10 @@ def test_sleeve_contact_force_converges():
     assert ref.ring_band > 0 and ref.ring_edge > 0
     punch = [CylinderPunch(Rs, (0.0, c))]
     base = graded_nodes(0.0, 1.0, [c], h_min=0.01, h_max=0.05, ratio=1.5)
-    print(f"\n sleeve, free boundary resolved: F = {ref.total_normal_force:.10f}, x_t = {ref.x_t:.8f}, "
-          f"rings {ref.ring_band:.6f} (x_t), {ref.ring_edge:.6f} (x = c)")
+    print(
+        f"\n sleeve, free boundary resolved: F = {ref.total_normal_force:.10f}, x_t = {ref.x_t:.8f}, "
+        f"rings {ref.ring_band:.6f} (x_t), {ref.ring_edge:.6f} (x = c)"
+    )
     print(" level  nodes  active  total force       rel. error   rate   edge ring")
     errs, hs = [], []
     for lev in range(5):
@@ -121,8 +123,10 @@ def test_sleeve_contact_force_converges():
         rate = "" if not errs else f"{math.log2(errs[-1] / err):5.2f}"
         errs.append(err)
         hs.append(np.max(np.diff(nodes)))
-        print(f" {lev:5d}  {len(nodes):5d}  {int(s.active.sum()):6d}  {s.total_normal_force():.10f}  {err:.3e}  "
-              f"{rate:>5}  {s.edge_forces()[1]:.6f}")
+        print(
+            f" {lev:5d}  {len(nodes):5d}  {int(s.active.sum()):6d}  {s.total_normal_force():.10f}  {err:.3e}  "
+            f"{rate:>5}  {s.edge_forces()[1]:.6f}"
+        )
         # the contact set is [0, x_t] ∪ {c}: a gap opens between the band and the sleeve edge
         za, zb = s.contact_zone()
         assert za == 0.0 and zb == pytest.approx(c)
