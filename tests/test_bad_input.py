@@ -47,8 +47,8 @@ BASE = textwrap.dedent(
 )
 
 
-def cli(*args: str, cwd: Path, code: str | None = None) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, "-c", code, *args] if code else [sys.executable, "-m", "shellcontact.cli", *args]
+def cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, "-m", "shellcontact.cli", *args]
     return subprocess.run(cmd, cwd=cwd, env=ENV, capture_output=True, text=True, timeout=120)
 
 
@@ -197,26 +197,35 @@ def test_bad_study_arguments(tmp_path: Path, args: list[str], fragments: list[st
         assert f in r.stderr, (f, r.stderr)
 
 
+PANEL = str(Path(__file__).resolve().parents[1] / "examples" / "paper_panel.toml")
+
+
+@pytest.mark.parametrize(
+    "setting,fragments",
+    [
+        ("punch.0.radius=-1", ["punch.0.radius", "> 0"]),
+        ("punch.0.shape=cube", ["punch.0.shape", "must be one of", "sphere", "cube"]),
+        ("punch.0.indentaton=1e-3", ["punch.0.indentaton", "did you mean 'indentation'"]),
+        ("solver.penalty=0", ["solver.penalty", "> 0"]),
+        ("punch.0.zone={x=[5.0, 6.0], phi=[70.0, 110.0]}", ["punch.0.zone.x", "outside the shell"]),
+    ],
+    ids=["punch-radius", "punch-shape", "punch-key", "penalty-epsilon", "zone-outside"],
+)
+def test_bad_contact_input(tmp_path: Path, setting: str, fragments: list[str]) -> None:
+    r = cli("run", PANEL, "-o", "out", "--set", "mesh.nx=4", "--set", "mesh.nphi=4", "--set", setting, cwd=tmp_path)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    for f in fragments:
+        assert f in r.stderr, (f, r.stderr)
+
+
 def test_solver_failure_exit_3(tmp_path: Path) -> None:
-    """The CLI turns a SolverError into exit status 3 and prints the residuals (the solve is replaced
-    by one that fails, in the subprocess only)."""
-    (tmp_path / "case.toml").write_text(BASE)
-    code = textwrap.dedent(
-        """\
-        import sys
-        import shellcontact.analysis as analysis
-        from shellcontact.cli import main
-        from shellcontact.errors import SolverError
-
-        def failing(case, **kw):
-            raise SolverError("active set did not converge", {"stationarity": 2.5e-3, "penetration": 1.0e-6}, 50)
-
-        analysis.solve = failing
-        sys.exit(main(sys.argv[1:]))
-        """
-    )
-    r = cli("run", "case.toml", "-o", "out", cwd=tmp_path, code=code)
+    """A contact solve stopped after one iteration fails loudly: exit status 3, the residuals, no outputs."""
+    args = ["--set", "mesh.nx=8", "--set", "mesh.nphi=8", "--set", "solver.max_iterations=1", "--method", "dual"]
+    r = cli("run", PANEL, "-o", "out", *args, cwd=tmp_path)
     assert r.returncode == 3, r.stderr
     assert "Traceback" not in r.stderr
-    assert "solver failed: active set did not converge after 50 iterations" in r.stderr
-    assert "stationarity" in r.stderr and "2.500e-03" in r.stderr
+    assert r.stderr.startswith("solver failed: dual") and "after 1 iterations" in r.stderr
+    table = [ln.split() for ln in r.stderr.splitlines()[1:]]
+    assert table and all(len(row) == 2 and float(row[1]) >= 0 for row in table)  # one residual per line
+    assert "penetration" in r.stderr
+    assert not (tmp_path / "out" / "summary.json").exists()
