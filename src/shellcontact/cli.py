@@ -250,11 +250,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog="shellcontact", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     p.add_argument("--version", action="version", version=f"shellcontact {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND", help="one of the commands above")
 
     r = sub.add_parser(
         "run",
-        help="solve one case file and write the run directory",
         description="Solve one case and write DIR/summary.json, fields.vtu (ParaView), results.npz, "
         "deflection/deformed (and, with contact, pressure) PNG figures and report.html.",
     )
@@ -265,7 +264,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser(
         "demo",
-        help="the paper's problem by three methods, side by side",
         description="A clamped cylindrical panel pressed by a spherical punch, solved by the "
         "penalty, active-set and dual methods; prints a table and writes DIR.",
     )
@@ -276,7 +274,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser(
         "sweep",
-        help="one solve per parameter value: CSV and plots (resumable)",
         description="A load path: solve the case for each value of a case-file key. Writes "
         "DIR/sweep.csv (parameter, energy, max|w|, probe w, and with contact force, area, peak "
         "pressure), sweep.png, force_indentation.png. Finished steps are recorded in DIR/steps/; "
@@ -296,7 +293,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser(
         "convergence",
-        help="nested mesh refinement: errors and observed rates",
         description="Solve with mesh.refine = r0, r0+1, ..., r0+L-1 (r0 the case's value); "
         "print and write DIR/convergence.csv (dofs, h, energy, force or probe value, errors "
         "against the finest level, observed rates), convergence.json and convergence.png.",
@@ -306,11 +302,15 @@ def build_parser() -> argparse.ArgumentParser:
     _common(c)
     c.set_defaults(func=cmd_convergence)
 
-    v = sub.add_parser("verify", help="the paper's results as numerical checks (pass/fail table)")
+    v = sub.add_parser(
+        "verify",
+        description="Run the paper's results (MODEL.md §9) as numerical checks on small cases and print a "
+        "pass/fail table with the measured figures; exit status 1 when a check fails.",
+    )
     _common(v)
     v.set_defaults(func=cmd_verify)
 
-    i = sub.add_parser("info", help="versions, linear-algebra backends, threads")
+    i = sub.add_parser("info", description="Versions, linear-algebra backends, cores and thread settings.")
     _common(i)
     i.set_defaults(func=cmd_info)
     return p
