@@ -197,7 +197,7 @@ def structured(
     p = np.vstack([X.ravel(), S.ravel()])
     t, centres = _split(len(xs) - 1, len(ss) - 1, pattern)
     if centres.size:
-        q = p[:, t[0, : centres.size]] + p[:, t[2, centres.size : 2 * centres.size]]
+        q = p[:, t[0, : centres.size]] + p[:, t[1, centres.size : 2 * centres.size]]  # n00 + n11
         p = np.hstack([p, 0.5 * q])
     return ShellMesh(shell, MeshTri(p, t))
 
