@@ -46,11 +46,7 @@ def evaluation_grid(result, quantity: str = "w", max_points: int = 30000) -> tup
     """``quantity`` on the vertices of a uniformly refined copy of the mesh (at most ~max_points),
     evaluated with the finite-element basis (not linear interpolation), over (x, φ°)."""
     sol = result.solution
-    m = sol.space.mesh.mesh
-    level = 0
-    while level < 3 and m.p.shape[1] * 4 ** (level + 1) <= max_points:
-        level += 1
-    r = m.refined(level) if level else m
+    r = _refined(result, max_points)
     x, s = r.p
     vals = sol.evaluate(x, s / sol.shell.radius, (quantity,))[quantity]
     return Triangulation(x, np.degrees(s / sol.shell.radius), r.t.T), vals
@@ -104,7 +100,8 @@ def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, 
     lo, hi = float(np.min(face)), float(np.max(face))
     norm = colors.Normalize(lo, hi if hi > lo else lo + 1.0)
     mapper = cm.ScalarMappable(norm=norm, cmap=cmap)
-    poly = Poly3DCollection(pts[t], facecolors=mapper.to_rgba(face), edgecolors="none", linewidths=0)
+    rgba = mapper.to_rgba(face)
+    poly = Poly3DCollection(pts[t], facecolors=rgba, edgecolors=rgba, linewidths=0.3)  # edges hide seams
     ax.add_collection3d(poly)
     lo3, hi3 = pts.min(axis=0), pts.max(axis=0)
     span = np.maximum(hi3 - lo3, 0.05 * float(np.max(hi3 - lo3)))  # true proportions, no flat axis
@@ -122,25 +119,50 @@ def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, 
     fig.colorbar(mapper, ax=ax, shrink=0.6, pad=0.12, label=label)
 
 
+def _refined(result, max_points: int):
+    """A uniformly refined copy of the mesh with at most ~max_points vertices (level ≤ 3)."""
+    m = result.solution.space.mesh.mesh
+    level = 0
+    while level < 3 and m.p.shape[1] * 4 ** (level + 1) <= max_points:
+        level += 1
+    return m.refined(level) if level else m
+
+
 def plot_deformed(result, path: str | Path | None = None, scale: float | None = None) -> Figure:
     """3D view of the deformed middle surface coloured by w (and by contact pressure when present);
-    displacements are multiplied by ``scale`` (default: ``exaggeration(result)``), shown in the title."""
+    displacements are multiplied by ``scale`` (default: ``exaggeration(result)``), shown in the title.
+    The surface is drawn on a refined copy of the mesh with the finite-element fields (so coarse
+    meshes still look curved); the dashed lines are the undeformed edges."""
     sol = result.solution
+    sh = sol.shell
     scale = exaggeration(result) if scale is None else float(scale)
-    pts = sol.deformed_vertices(scale).T
-    t = sol.space.mesh.t.T
-    x, s = sol.space.mesh.p
-    w = sol.evaluate(x, s / sol.shell.radius, ("w",))["w"]
+    r = _refined(result, 6000)
+    x, s = r.p
+    phi = s / sh.radius
+    pts = (sh.point(x, phi) + scale * sol.displacement(x, phi)).T
+    t = r.t.T
+    w = sol.evaluate(x, phi, ("w",))["w"]
+    panels = [("w", w, "viridis")]
     pressure = contact_vertex_fields(result).get("contact_pressure")
-    ref = sol.deformed_vertices(0.0)
-    edges = [sol.space.mesh.edge_vertices(e) for e in ("x_min", "x_max", "phi_min", "phi_max")]
-    panels = [("w", w, "viridis")] + ([("contact pressure", pressure, "inferno")] if pressure is not None else [])
+    if pressure is not None:
+        from matplotlib.tri import LinearTriInterpolator
+
+        mx, ms = sol.space.mesh.p
+        interp = LinearTriInterpolator(Triangulation(mx, ms, sol.space.mesh.t.T), np.asarray(pressure, float))
+        panels.append(("contact pressure", np.ma.filled(interp(x, s), 0.0), "inferno"))
+    n = 60
+    lines = [
+        (np.full(n, sh.x_min), np.linspace(sh.alpha, sh.beta, n)),
+        (np.full(n, sh.x_max), np.linspace(sh.alpha, sh.beta, n)),
+        (np.linspace(sh.x_min, sh.x_max, n), np.full(n, sh.alpha)),
+        (np.linspace(sh.x_min, sh.x_max, n), np.full(n, sh.beta)),
+    ]
     fig = Figure(figsize=(6.0 * len(panels), 5.2))
     for k, (label, vals, cmap) in enumerate(panels):
         ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
         _surface(ax, pts, t, np.asarray(vals, float), cmap, label, fig)
-        for k, edge in enumerate(edges):  # the undeformed boundary, for reference
-            ax.plot(*ref[:, edge], color="0.4", lw=0.8, ls="--", label="undeformed edge" if k == 0 else None)
+        for lx, lp in lines:  # the undeformed boundary, for reference
+            ax.plot(*sh.point(lx, lp), color="0.4", lw=0.8, ls="--")
         ax.view_init(elev=25, azim=-60)
         ax.set_title(f"deformed shell coloured by {label}\ndisplacements × {scale:g}")
     return _finish(fig, path)
