@@ -203,6 +203,11 @@ def test_pressure_lines_pass_through_peak(contact_result) -> None:
     peak = float(np.max(pressure))
     for _, (_, p) in lines.items():
         assert float(np.max(p)) == peak
+    # chosen lines snap to the nearest mesh line: x = 5 → the vertex line x = 6.25 (4 cells on [0, 25])
+    chosen = pressure_lines(result, x=5.0, phi=80.0)
+    assert list(chosen) == ["x = 6.25", "φ = 80°"]
+    coords, _ = chosen["x = 6.25"]
+    assert np.all(coords >= 70.0)  # only the candidate zone (phi >= 70 deg)
 
 
 def test_contact_vertex_arrays_gather_operator_rows() -> None:

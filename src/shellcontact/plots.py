@@ -217,33 +217,42 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     return _finish(fig, path)
 
 
-def pressure_lines(result) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
-    """Nodal pressures along the mesh lines x = x* and φ = φ* through the peak-pressure vertex,
-    within the candidate zone."""
+def pressure_lines(
+    result, x: float | None = None, phi: float | None = None
+) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
+    """Nodal pressures along the mesh line x = x* (against φ°) and the line φ = φ* (against x),
+    within the candidate zone. x* and φ* (degrees) default to the peak-pressure vertex; given
+    values are moved to the nearest mesh line (pressures live at vertices)."""
     fields = contact_vertex_fields(result)
     p = fields.get("contact_pressure")
     if p is None or not np.any(np.asarray(p) > 0):
         return None
     p = np.asarray(p, float)
     sol = result.solution
-    x, s = sol.space.mesh.p
-    phi = np.degrees(s / sol.shell.radius)
+    xv, s = sol.space.mesh.p
+    phv = np.degrees(s / sol.shell.radius)
     i = int(np.argmax(p))
-    tol = 1e-9 * max(sol.shell.length, s.max() - s.min())
+    x0 = xv[i] if x is None else xv[np.argmin(np.abs(xv - x))]
+    p0 = phv[i] if phi is None else phv[np.argmin(np.abs(phv - phi))]
+    tol_x = 1e-9 * max(sol.shell.length, 1.0)
+    tol_p = 1e-9 * max(float(np.ptp(phv)), 1.0)
     status = fields.get("contact_status")
-    zone = np.asarray(status) >= 0 if status is not None else np.ones(x.size, bool)  # the candidate zone
-    on_x = np.nonzero((np.abs(x - x[i]) <= tol) & zone)[0]
-    on_s = np.nonzero((np.abs(s - s[i]) <= tol) & zone)[0]
-    on_x, on_s = on_x[np.argsort(phi[on_x])], on_s[np.argsort(x[on_s])]
+    zone = np.asarray(status) >= 0 if status is not None else np.ones(xv.size, bool)  # the candidate zone
+    on_x = np.nonzero((np.abs(xv - x0) <= tol_x) & zone)[0]
+    on_p = np.nonzero((np.abs(phv - p0) <= tol_p) & zone)[0]
+    on_x, on_p = on_x[np.argsort(phv[on_x])], on_p[np.argsort(xv[on_p])]
     return {
-        f"x = {_fmt(x[i])}": (phi[on_x], p[on_x]),
-        f"φ = {_fmt(phi[i])}°": (x[on_s], p[on_s]),
+        f"x = {_fmt(x0)}": (phv[on_x], p[on_x]),
+        f"φ = {_fmt(p0)}°": (xv[on_p], p[on_p]),
     }
 
 
-def plot_pressure_profiles(result, path: str | Path | None = None) -> Figure | None:
-    """Pressure along the two mesh lines through the peak (None without contact pressure)."""
-    lines = pressure_lines(result)
+def plot_pressure_profiles(
+    result, path: str | Path | None = None, x: float | None = None, phi: float | None = None
+) -> Figure | None:
+    """Pressure along the mesh lines x = x* and φ = φ* (degrees; default through the peak);
+    None without contact pressure."""
+    lines = pressure_lines(result, x, phi)
     if lines is None:
         return None
     fig = Figure(figsize=(10, 4))
