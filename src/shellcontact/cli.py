@@ -141,7 +141,16 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     summary["case_file"] = str(args.case)
     if sets:
         summary["overrides"] = sets
-    written = write_outputs(result, out, summary, figures=not args.no_figures, report=not args.no_report, log=log.info)
+    written = write_outputs(
+        result,
+        out,
+        summary,
+        figures=not args.no_figures,
+        report=not args.no_report,
+        log=log.info,
+        profile_x=args.profile_x,
+        profile_phi=args.profile_phi,
+    )
     _print_summary(con, summary)
     con.print(f"wrote {out}/: {', '.join(written)}")
     return EXIT_OK
@@ -259,6 +268,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _case_args(r, "output directory (default: <case name>-out)")
     r.add_argument("--no-report", action="store_true", help="skip report.html")
+    r.add_argument("--profile-x", type=float, metavar="X", help="pressure profile along the mesh line nearest x = X")
+    r.add_argument(
+        "--profile-phi", type=float, metavar="DEG", help="pressure profile along the mesh line nearest phi = DEG"
+    )
     _common(r)
     r.set_defaults(func=cmd_run)
 

@@ -297,9 +297,12 @@ def write_outputs(
     figures: bool = True,
     report: bool = True,
     log: Callable[[str], None] | None = None,
+    profile_x: float | None = None,
+    profile_phi: float | None = None,
 ) -> dict[str, Path]:
     """Write the run directory: summary.json, fields.vtu, results.npz, PNG figures, report.html.
 
+    ``profile_x``/``profile_phi`` (degrees) choose the pressure-profile lines.
     Returns the written files by name. ``summary`` defaults to ``result.summary()``; the time
     spent here is added to ``summary["timings"]["output"]`` (and ``total``).
     """
@@ -317,7 +320,7 @@ def write_outputs(
     if figures:
         from . import plots
 
-        pngs = plots.run_figures(result, fields)
+        pngs = plots.run_figures(result, fields, profile_x, profile_phi)
         for name, data in pngs.items():
             atomic_write_bytes(directory / name, data)
             written[name] = directory / name

@@ -266,11 +266,19 @@ def plot_pressure_profiles(
     return _finish(fig, path)
 
 
-def run_figures(result, fields: dict[str, np.ndarray] | None = None) -> dict[str, bytes]:
-    """All figures of one run as PNG bytes, by file name (contact figures only with contact)."""
+def run_figures(
+    result,
+    fields: dict[str, np.ndarray] | None = None,
+    profile_x: float | None = None,
+    profile_phi: float | None = None,
+) -> dict[str, bytes]:
+    """All figures of one run as PNG bytes, by file name (contact figures only with contact);
+    ``profile_x``/``profile_phi`` (degrees) choose the pressure-profile lines (default: through the peak)."""
     out = {"deflection.png": plot_deflection(result), "deformed.png": plot_deformed(result)}
-    for name, fn in (("pressure.png", plot_pressure), ("pressure_profiles.png", plot_pressure_profiles)):
-        fig = fn(result)
+    for name, fig in (
+        ("pressure.png", plot_pressure(result)),
+        ("pressure_profiles.png", plot_pressure_profiles(result, x=profile_x, phi=profile_phi)),
+    ):
         if fig is not None:
             out[name] = fig
     return {k: png_bytes(f) for k, f in out.items()}
