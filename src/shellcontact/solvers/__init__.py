@@ -4,7 +4,8 @@
 
 Public API::
 
-    from shellcontact.solvers import ContactQP, ContactSolution, solve_penalty, solve_active_set, solve_dual, kkt_residuals
+    from shellcontact.solvers import (ContactQP, ContactSolution, solve_penalty, solve_active_set,
+                                      solve_dual, kkt_residuals)
 
     qp = ContactQP(A, F, B, G, weights, D=None, P=None)        # validated on construction
     solve_penalty(qp, epsilon=1e-6, continuation=None | [eps...], tol=1e-10, max_iterations=50, factorization=None)
