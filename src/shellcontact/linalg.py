@@ -2,17 +2,32 @@
 
 ``factorize(A)`` equilibrates A symmetrically (S A S with S = diag(A)^{-1/2}: the Argyris
 dofs mix values, first and second derivatives, so the raw diagonal spans many orders of
-magnitude), factorises it once with the best available backend, and returns an object
-whose ``solve`` reuses the factorisation and applies iterative refinement against the
-original matrix. Backends (``backend=``): "pardiso" (MKL via pypardiso), "cholmod"
-(scikit-sparse), "superlu" (SciPy, configured for symmetric matrices: its defaults take
-minutes and tens of GB on these fourth-order systems). "auto" takes the first available.
+magnitude), factorises it once with the best available backend, and returns a
+``Factorization`` whose ``solve`` reuses the factors and applies iterative refinement against
+the original matrix, and whose ``refactor(A_new)`` redoes only the numeric factorisation when
+the sparsity pattern is unchanged (the symbolic analysis / fill-reducing ordering is reused).
+
+Backends (``backend=`` or the environment variable SHELLCONTACT_BACKEND; "auto" takes the
+first available in this order):
+
+* "pardiso": MKL PARDISO through the ``pypardiso`` package's MKL binding, called directly
+  with explicit phases (11 analysis, 22 numeric, 33 solve), real SPD (mtype 2) on the upper
+  triangle, METIS ordering, zero-based indices.
+* "cholmod": CHOLMOD supernodal Cholesky (``scikit-sparse``, optional extra
+  ``shellcontact[cholmod]``; needs the SuiteSparse headers, e.g. Debian's libsuitesparse-dev,
+  and scikit-sparse < 0.5 with SuiteSparse 5; a fast BLAS such as libopenblas-dev matters).
+* "superlu": SciPy's SuperLU, always there, configured for symmetric matrices
+  (MMD on AᵀA+A, symmetric mode, diagonal pivoting): its defaults take minutes and tens of
+  GB on these fourth-order systems.
+
+A matrix that is singular or not positive definite raises SolverError whatever the backend.
 """
 
 from __future__ import annotations
 
 import importlib.util
 import os
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,63 +37,224 @@ import scipy.sparse.linalg as spla
 from .errors import InputError, SolverError
 
 BACKENDS = ("pardiso", "cholmod", "superlu")
+ENV_VAR = "SHELLCONTACT_BACKEND"
+_AVAILABLE: list[str] | None = None
+
+
+def _pardiso_loads() -> bool:
+    if importlib.util.find_spec("pypardiso") is None:
+        return False
+    try:
+        import pypardiso
+
+        pypardiso.PyPardisoSolver(mtype=2)  # finds and loads MKL's mkl_rt
+    except Exception:  # noqa: BLE001 — any failure to load MKL means "not available"
+        return False
+    return True
+
+
+def _cholmod_loads() -> bool:
+    if importlib.util.find_spec("sksparse") is None:
+        return False
+    try:
+        import sksparse.cholmod  # noqa: F401
+    except Exception:  # noqa: BLE001 — a broken build (missing libcholmod) means "not available"
+        return False
+    return True
 
 
 def available_backends() -> list[str]:
-    out = []
-    if importlib.util.find_spec("pypardiso") is not None:
-        out.append("pardiso")
-    if importlib.util.find_spec("sksparse") is not None:
-        out.append("cholmod")
-    out.append("superlu")
-    return out
+    """Backends that work on this machine, in the order "auto" prefers them."""
+    global _AVAILABLE
+    if _AVAILABLE is None:
+        out = []
+        if _pardiso_loads():
+            out.append("pardiso")
+        if _cholmod_loads():
+            out.append("cholmod")
+        out.append("superlu")
+        _AVAILABLE = out
+    return list(_AVAILABLE)
 
 
 def default_backend() -> str:
-    forced = os.environ.get("SHELLCONTACT_BACKEND")
-    if forced:
-        return forced
+    """The backend "auto" resolves to: SHELLCONTACT_BACKEND if set, else the first available."""
+    forced = os.environ.get(ENV_VAR, "").strip().lower()
+    if forced and forced != "auto":
+        return _check_backend(forced, ENV_VAR)
     return available_backends()[0]
 
 
+def _check_backend(name: str, where: str = "solver.backend") -> str:
+    if name not in BACKENDS:
+        raise InputError(where, f"must be one of auto, {', '.join(BACKENDS)}, got {name!r}")
+    if name not in available_backends():
+        raise InputError(where, f"{name!r} is not installed here; available: {', '.join(available_backends())}")
+    return name
+
+
+# -- backends -----------------------------------------------------------------------------------
+
+
 class _Pardiso:
+    """MKL PARDISO, real SPD (mtype 2), upper triangle in CSR with zero-based indices."""
+
     def __init__(self, A: sp.csr_matrix) -> None:
+        import ctypes
+
         import pypardiso
 
-        self.solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
-        self.solver.set_iparm(1, 1)
-        self.upper = sp.triu(A, format="csr")
-        self.upper.sort_indices()
-        self.solver.factorize(self.upper)
+        self._ctypes = ctypes
+        self._mkl = pypardiso.PyPardisoSolver(mtype=2)._mkl_pardiso
+        self.pt = np.zeros(64, dtype=np.int64)
+        self.iparm = np.zeros(64, dtype=np.int32)
+        ip = self.iparm  # 0-based here; the MKL documentation counts from 1
+        ip[0] = 1  # use the values below
+        ip[1] = 2  # METIS nested dissection
+        ip[7] = 0  # PARDISO's own refinement off: the Factorization refines against A
+        ip[9] = 13  # pivot perturbation (unused for SPD)
+        ip[17] = -1  # report nnz(L)
+        ip[34] = 1  # zero-based indices
+        self.n = A.shape[0]
+        self._set_matrix(A)
+        self._call(11)  # ordering and symbolic factorisation
+        self._call(22)  # numeric factorisation
+
+    def _set_matrix(self, A: sp.csr_matrix) -> None:
+        U = sp.triu(A, format="csr")
+        U.sort_indices()
+        if np.any(np.diff(U.indptr) == 0):
+            raise SolverError("matrix has an empty row: singular")
+        self.data = np.ascontiguousarray(U.data, dtype=np.float64)
+        self.ia = U.indptr.astype(np.int32)
+        self.ja = U.indices.astype(np.int32)
+
+    def _call(self, phase: int, b: np.ndarray | None = None) -> np.ndarray | None:
+        c = self._ctypes
+        nrhs = 1 if b is None or b.ndim == 1 else b.shape[1]
+        if b is None:
+            bb = np.zeros(self.n)
+            x = np.zeros(self.n)
+        else:
+            bb = np.asfortranarray(b, dtype=np.float64)
+            x = np.zeros_like(bb)
+        err = c.c_int32(0)
+        i32 = c.POINTER(c.c_int32)
+        f64 = c.POINTER(c.c_double)
+        self._mkl(
+            self.pt.ctypes.data_as(c.POINTER(c.c_int64)),
+            c.byref(c.c_int32(1)),
+            c.byref(c.c_int32(1)),
+            c.byref(c.c_int32(2)),
+            c.byref(c.c_int32(phase)),
+            c.byref(c.c_int32(self.n)),
+            self.data.ctypes.data_as(f64),
+            self.ia.ctypes.data_as(i32),
+            self.ja.ctypes.data_as(i32),
+            np.zeros(1, dtype=np.int32).ctypes.data_as(i32),
+            c.byref(c.c_int32(nrhs)),
+            self.iparm.ctypes.data_as(i32),
+            c.byref(c.c_int32(0)),
+            bb.ctypes.data_as(f64),
+            x.ctypes.data_as(f64),
+            c.byref(err),
+        )
+        if err.value != 0:
+            reason = {-4: "zero or negative pivot: not positive definite", -2: "out of memory"}.get(err.value, "")
+            raise SolverError(f"PARDISO phase {phase} failed with error {err.value} {reason}".strip())
+        return None if b is None else np.ascontiguousarray(x)
+
+    def refactor(self, A: sp.csr_matrix) -> None:
+        U = sp.triu(A, format="csr")
+        U.sort_indices()
+        if U.nnz != self.data.size or not np.array_equal(U.indices, self.ja):
+            self.free()
+            self.pt[:] = 0
+            self._set_matrix(A)
+            self._call(11)
+        else:
+            self.data = np.ascontiguousarray(U.data, dtype=np.float64)
+        self._call(22)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        return self.solver.solve(self.upper, b)
+        return self._call(33, b)
+
+    def info(self) -> dict:
+        return {"factor_nnz": int(self.iparm[17]), "peak_kb_symbolic": int(self.iparm[14]),
+                "kb_factor": int(self.iparm[15] + self.iparm[16])}
 
     def free(self) -> None:
-        self.solver.free_memory(everything=True)
+        if np.any(self.pt):
+            try:
+                self._call(-1)
+            finally:
+                self.pt[:] = 0
 
 
 class _Cholmod:
-    def __init__(self, A: sp.csr_matrix) -> None:
-        from sksparse.cholmod import cholesky
+    """CHOLMOD supernodal Cholesky; the symbolic analysis is kept for refactor()."""
 
-        self.factor = cholesky(A.tocsc())
+    def __init__(self, A: sp.csr_matrix) -> None:
+        from sksparse.cholmod import CholmodError, cholesky
+
+        self._error = CholmodError
+        try:
+            self.factor = cholesky(sp.csc_matrix(A))
+        except CholmodError as exc:
+            raise SolverError(f"CHOLMOD: {exc} (not positive definite)") from None
+
+    def refactor(self, A: sp.csr_matrix) -> None:
+        try:
+            self.factor.cholesky_inplace(sp.csc_matrix(A))
+        except self._error as exc:
+            raise SolverError(f"CHOLMOD: {exc} (not positive definite)") from None
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         return self.factor(b)
+
+    def info(self) -> dict:
+        L = self.factor.L()
+        return {"factor_nnz": int(L.nnz)}
 
     def free(self) -> None:
         pass
 
 
 class _SuperLU:
+    """SciPy SuperLU with a symmetric ordering and diagonal pivots; refactor() keeps the ordering."""
+
+    OPTIONS = {"SymmetricMode": True}
+
     def __init__(self, A: sp.csr_matrix) -> None:
-        self.lu = spla.splu(
-            A.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-        )
+        self.lu = self._splu(sp.csc_matrix(A), "MMD_AT_PLUS_A")
+        pc = self.lu.perm_c
+        self.q = np.empty_like(pc)  # with B = A[q][:, q], SuperLU's natural order reproduces its ordering
+        self.q[pc] = np.arange(pc.size)
+        self.permuted = False
+
+    def _splu(self, M: sp.csc_matrix, permc: str):
+        try:
+            lu = spla.splu(M, permc_spec=permc, diag_pivot_thresh=0.0, options=self.OPTIONS)
+        except RuntimeError as exc:
+            raise SolverError(f"SuperLU: {exc} (singular)") from None
+        # SPD ⇔ the symmetric pivoting kept every pivot on the diagonal and all pivots are positive
+        if not np.array_equal(lu.perm_r, lu.perm_c) or not np.all(lu.U.diagonal() > 0):
+            raise SolverError("SuperLU: non-positive pivot, the matrix is not positive definite")
+        return lu
+
+    def refactor(self, A: sp.csr_matrix) -> None:
+        self.lu = self._splu(sp.csc_matrix(sp.csr_matrix(A)[self.q][:, self.q]), "NATURAL")
+        self.permuted = True
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        return self.lu.solve(b)
+        if not self.permuted:
+            return self.lu.solve(b)
+        x = np.empty_like(b)
+        x[self.q] = self.lu.solve(b[self.q])
+        return x
+
+    def info(self) -> dict:
+        return {"factor_nnz": int(self.lu.L.nnz + self.lu.U.nnz)}
 
     def free(self) -> None:
         pass
@@ -89,26 +265,86 @@ _IMPL = {"pardiso": _Pardiso, "cholmod": _Cholmod, "superlu": _SuperLU}
 
 @dataclass
 class Factorization:
-    """A factorised SPD matrix; ``solve`` works on vectors or (n, k) blocks."""
+    """A factorised SPD matrix; ``solve`` works on vectors or (n, k) blocks.
+
+    ``residual`` holds the relative residual ‖b − A x‖₂/‖b‖₂ of the last solve (max over columns),
+    ``backward_error`` its normwise backward error, ``refinements`` the number of refinement steps
+    it took, ``seconds`` the (last) factorisation time.
+    """
 
     A: sp.csr_matrix
     backend: str
     scale: np.ndarray
     impl: object = field(repr=False)
-    refine_steps: int = 2
-    rtol: float = 1e-13
+    refine_steps: int = 3
+    seconds: float = 0.0
+    residual: float = float("nan")
+    backward_error: float = float("nan")
+    refinements: int = 0
+    _norm: tuple = field(default=(None, 0.0), repr=False)
 
-    def solve(self, b: np.ndarray) -> np.ndarray:
+    @property
+    def norm_inf(self) -> float:
+        """‖A‖∞ of the stored matrix (recomputed if A was replaced)."""
+        if self._norm[0] is not self.A:
+            self._norm = (self.A, _norm_inf(self.A))
+        return self._norm[1]
+
+    def solve(self, b: np.ndarray, refine_steps: int | None = None) -> np.ndarray:
+        """x with A x = b, refined against A until the backward error is at round-off.
+
+        Refinement stops (LAPACK's rule) when the normwise backward error
+        ‖r‖∞ / (‖A‖∞‖x‖∞ + ‖b‖∞) reaches a few ulps, or stops halving; a backward error that
+        stays large (> 1e-8) means the matrix is numerically singular: SolverError.
+        """
         b = np.asarray(b, dtype=float)
+        steps = self.refine_steps if refine_steps is None else refine_steps
         sc = self.scale if b.ndim == 1 else self.scale[:, None]
+        bnorm = np.max(np.abs(b), axis=0)
+
+        def backward_error(x, r):
+            return float(np.max(np.max(np.abs(r), axis=0) / np.maximum(
+                self.norm_inf * np.max(np.abs(x), axis=0) + bnorm, 1e-300)))
+
         x = sc * self.impl.solve(sc * b)
-        bn = np.linalg.norm(b, axis=0)
-        for _ in range(self.refine_steps):
-            r = b - self.A @ x
-            if np.all(np.linalg.norm(r, axis=0) <= self.rtol * np.maximum(bn, 1e-300)):
+        r = b - self.A @ x
+        berr = backward_error(x, r)
+        self.refinements = 0
+        while self.refinements < steps and berr > 8.0 * np.finfo(float).eps and np.isfinite(berr):
+            x_new = x + sc * self.impl.solve(sc * r)
+            r_new = b - self.A @ x_new
+            berr_new = backward_error(x_new, r_new)
+            self.refinements += 1
+            if not berr_new < berr:  # no progress: keep the better iterate
                 break
-            x = x + sc * self.impl.solve(sc * r)
+            x, r, progress, berr = x_new, r_new, berr / berr_new, berr_new
+            if progress < 2.0:
+                break
+        bn = np.maximum(np.linalg.norm(b, axis=0), 1e-300)
+        self.residual = float(np.max(np.linalg.norm(r, axis=0) / bn))
+        self.backward_error = berr
+        if not np.isfinite(berr) or berr > 1e-8:
+            raise SolverError(
+                f"{self.backend}: the solution does not satisfy the equations (numerically singular matrix?)",
+                residuals={"backward_error": berr, "relative_residual": self.residual},
+            )
         return x
+
+    def refactor(self, A_new: sp.spmatrix) -> Factorization:
+        """Numeric refactorisation of a matrix with the same sparsity pattern (symbolic analysis reused)."""
+        A_new = sp.csr_matrix(A_new, dtype=float)
+        if A_new.shape != self.A.shape:
+            raise InputError("matrix", f"refactor needs shape {self.A.shape}, got {A_new.shape}")
+        self.scale, As = _equilibrate(A_new)
+        t0 = time.perf_counter()
+        self.impl.refactor(As)
+        self.seconds = time.perf_counter() - t0
+        self.A = A_new
+        return self
+
+    def info(self) -> dict:
+        return {"backend": self.backend, "n": self.A.shape[0], "nnz": int(self.A.nnz), "seconds": self.seconds,
+                **self.impl.info()}
 
     def __del__(self) -> None:
         try:
@@ -117,16 +353,11 @@ class Factorization:
             pass
 
 
-def factorize(A: sp.spmatrix, backend: str = "auto") -> Factorization:
-    """Equilibrate and factorise the SPD matrix A."""
-    name = default_backend() if backend == "auto" else backend
-    if name not in BACKENDS:
-        raise InputError("solver.backend", f"must be one of auto, {', '.join(BACKENDS)}, got {name!r}")
-    if name not in available_backends():
-        raise InputError(
-            "solver.backend", f"{name!r} is not installed here; available: {', '.join(available_backends())}"
-        )
-    A = sp.csr_matrix(A, dtype=float)
+def _norm_inf(A: sp.csr_matrix) -> float:
+    return float(np.max(np.add.reduceat(np.abs(A.data), A.indptr[:-1]))) if A.nnz else 0.0
+
+
+def _equilibrate(A: sp.csr_matrix) -> tuple[np.ndarray, sp.csr_matrix]:
     d = A.diagonal()
     if np.any(d <= 0) or not np.all(np.isfinite(d)):
         raise SolverError(
@@ -134,11 +365,28 @@ def factorize(A: sp.spmatrix, backend: str = "auto") -> Factorization:
             f"({int(np.sum(d <= 0))} dofs with no stiffness)"
         )
     scale = 1.0 / np.sqrt(d)
-    As = sp.csr_matrix(A.multiply(scale[:, None]).multiply(scale[None, :]))
+    As = A.copy()
+    # S A S on the CSR arrays directly (row scale by repeat of indptr, column scale by indices)
+    As.data *= np.repeat(scale, np.diff(As.indptr)) * scale[As.indices]
+    return scale, As
+
+
+def factorize(A: sp.spmatrix, backend: str = "auto") -> Factorization:
+    """Equilibrate and factorise the SPD matrix A (MODEL.md §8: A symmetric positive definite)."""
+    name = default_backend() if backend in ("auto", None, "") else _check_backend(str(backend).lower())
+    A = sp.csr_matrix(A, dtype=float)
+    if A.shape[0] != A.shape[1]:
+        raise InputError("matrix", f"must be square, got {A.shape}")
+    scale, As = _equilibrate(A)
+    t0 = time.perf_counter()
     try:
         impl = _IMPL[name](As)
-    except Exception as exc:  # backend-specific failure types
+    except SolverError as exc:
         raise SolverError(
             f"{name} factorisation failed: {exc} (are the supports enough to fix all rigid motions?)"
         ) from None
-    return Factorization(A=A, backend=name, scale=scale, impl=impl)
+    except Exception as exc:  # noqa: BLE001 — backend-specific failure types
+        raise SolverError(
+            f"{name} factorisation failed: {exc} (are the supports enough to fix all rigid motions?)"
+        ) from None
+    return Factorization(A=A, backend=name, scale=scale, impl=impl, seconds=time.perf_counter() - t0)

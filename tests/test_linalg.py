@@ -1,0 +1,117 @@
+"""Every sparse backend solves the shell's SPD systems alike; failures are SolverErrors (issue 5, target 2)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from shellcontact import linalg, model
+from shellcontact.errors import InputError, SolverError
+from shellcontact.geometry import Shell
+from shellcontact.mesh import structured
+from shellcontact.spaces import ShellSpace
+from shellcontact.supports import Reduction, Supports
+
+BACKENDS = linalg.available_backends()
+
+
+@pytest.fixture(scope="module")
+def shell_system():
+    """Clamped thin panel: a fourth-order stiffness with a wide diagonal range (t/a = 1/200)."""
+    sh = Shell(radius=2.0, length=3.0, thickness=0.01, young=7e10, poisson=0.3, alpha=0.0, beta=1.2)
+    space = ShellSpace(structured(sh, 8, 6))
+    A = model.stiffness(space)
+    red = Reduction.build(space, Supports())
+    return A, red.reduce_matrix(A)
+
+
+def test_superlu_is_always_there_and_auto_takes_the_first():
+    assert BACKENDS[-1] == "superlu"
+    assert set(BACKENDS) <= set(linalg.BACKENDS)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_backends_give_the_same_solution(shell_system, backend):
+    _, A = shell_system
+    rng = np.random.default_rng(0)
+    b = rng.standard_normal(A.shape[0])
+    B = rng.standard_normal((A.shape[0], 3))
+    ref = linalg.factorize(A, "superlu")
+    f = linalg.factorize(A, backend)
+    assert f.backend == backend
+    x, x_ref = f.solve(b), ref.solve(b)
+    assert np.linalg.norm(x - x_ref) <= 1e-10 * np.linalg.norm(x_ref)
+    X = f.solve(B)
+    assert X.shape == B.shape
+    assert np.linalg.norm(X - ref.solve(B)) <= 1e-10 * np.linalg.norm(X)
+    assert f.residual < 1e-9 and f.backward_error < 1e-14
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_refactor_reuses_the_analysis(shell_system, backend):
+    _, A = shell_system
+    b = np.random.default_rng(1).standard_normal(A.shape[0])
+    f = linalg.factorize(A, backend)
+    A2 = A.copy()
+    A2.data *= 1.0 + 0.2 * np.cos(np.arange(A2.nnz))  # same pattern, new values …
+    A2 = sp.csr_matrix(0.5 * (A2 + A2.T)) + sp.diags(np.abs(A).sum(axis=1).A1)  # … still SPD
+    fresh = linalg.factorize(A2, "superlu").solve(b)
+    x = f.refactor(A2).solve(b)
+    assert np.linalg.norm(x - fresh) <= 1e-10 * np.linalg.norm(fresh)
+    assert np.linalg.norm(A2 @ x - b) <= 1e-9 * np.linalg.norm(b)
+
+
+def test_iterative_refinement_reduces_the_residual(shell_system):
+    """Refinement runs against the stored matrix: with the factors of a nearby matrix it still converges."""
+    _, A = shell_system
+    b = np.random.default_rng(2).standard_normal(A.shape[0])
+    f = linalg.factorize(A)
+    A_true = A + sp.diags(1e-6 * A.diagonal())
+    f.A = A_true  # the factors are now those of an approximation of f.A
+    x0 = f.solve(b, refine_steps=0)
+    r0 = np.linalg.norm(A_true @ x0 - b)
+    x = f.solve(b, refine_steps=30)
+    r = np.linalg.norm(A_true @ x - b)
+    assert f.refinements >= 2
+    assert r < 1e-6 * r0
+    exact = linalg.factorize(A_true).solve(b)
+    assert np.linalg.norm(x - exact) <= 1e-10 * np.linalg.norm(exact)
+
+
+def test_forced_backend_by_argument_and_environment(shell_system, monkeypatch):
+    _, A = shell_system
+    monkeypatch.setenv(linalg.ENV_VAR, "superlu")
+    assert linalg.default_backend() == "superlu"
+    assert linalg.factorize(A).backend == "superlu"
+    monkeypatch.setenv(linalg.ENV_VAR, "nonsense")
+    with pytest.raises(InputError):
+        linalg.factorize(A)
+    monkeypatch.delenv(linalg.ENV_VAR)
+    assert linalg.factorize(A).backend == BACKENDS[0]
+    with pytest.raises(InputError):
+        linalg.factorize(A, backend="umfpack")
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_indefinite_matrix_is_a_solver_error(shell_system, backend):
+    _, A = shell_system
+    d = A.diagonal()
+    s = 1.0 / np.sqrt(d)
+    lam_min = np.linalg.eigvalsh((A.multiply(s[:, None]).multiply(s[None, :])).toarray())[0]
+    A_ind = sp.csr_matrix(A - 2.0 * lam_min * sp.diags(d))  # positive diagonal, one negative eigenvalue
+    assert np.all(A_ind.diagonal() > 0)
+    with pytest.raises(SolverError):
+        linalg.factorize(A_ind, backend).solve(np.ones(A.shape[0]))
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_singular_matrix_is_a_solver_error(shell_system, backend):
+    A_free, _ = shell_system  # no supports: six rigid-body motions of zero energy
+    assert np.all(A_free.diagonal() > 0)
+    b = np.random.default_rng(3).standard_normal(A_free.shape[0])
+    with pytest.raises(SolverError):
+        linalg.factorize(A_free, backend).solve(b)
+    Z = sp.csr_matrix(sp.block_diag([A_free[:5, :5], sp.csr_matrix((1, 1))]))
+    with pytest.raises(SolverError):
+        linalg.factorize(Z, backend)
