@@ -182,7 +182,8 @@ def test_penalty_converges_at_order_one(name: str) -> None:
     exact = solve_active_set(qp, factorization=fact)
     eps_list = [1e-6, 1e-7, 1e-8, 1e-9, 1e-10]
     err, pen = [], []
-    print(f"\n{name}: penalty convergence\n{'eps':>8} {'|U_eps-U|/|U|':>14} {'penetration':>12} {'active':>6} {'Newton':>6}")
+    print(f"\n{name}: penalty convergence")
+    print(f"{'eps':>8} {'|U_eps-U|/|U|':>14} {'penetration':>12} {'active':>6} {'Newton':>6}")
     for eps in eps_list:
         s = solve_penalty(qp, epsilon=eps, factorization=fact)
         err.append(_rel(s.U, exact.U))
