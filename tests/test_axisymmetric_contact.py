@@ -207,3 +207,32 @@ def test_torus_band_2d_matches_oracle():
     e40, e80 = (abs(r[1] / fine.total_normal_force() - 1) for r in rows)
     print(f" fine 1D: {fine.total_normal_force():.8f};  2D error {e40:.2e} (nx=40), {e80:.2e} (nx=80)")
     assert e80 <= 1e-3 and e80 < e40
+
+
+def test_inner_surface_punches_match_oracle(sleeve_reference):
+    """side = "inner" (ζ = −e): a plug inside the pipe and a torus ring inside it; the Kirchhoff term −ζ Z_x w'
+    changes sign, so the inner torus band carries a different force than the outer one (102.6 vs 101.1)."""
+    sh = Shell1D(A, T, E, MU, 0.0, 1.0)
+    Rp = A - T / 2 + DELTA_S
+    plug = dict(SLEEVE, inverted=False, radius=Rp)
+    plug["side"] = "inner"
+    delta = 0.03
+    Rmaj = A - T / 2 + delta - R_MINOR
+    ring = dict(_torus(delta, 0.3), major_radius=Rmaj, side="inner")
+    cases = [
+        (plug, CylinderPunch(Rp, (0.0, C_S), inverted=False)),
+        (ring, TorusPunch(0.0, Rmaj, R_MINOR, (0.0, 0.3))),
+    ]
+    for punch2d, punch1d in cases:
+        res, summ = _solve2d(_case(1.0, "clamped", punch2d, 40))
+        s1 = solve(sh, _x_nodes(res), "symmetry", "clamped", punches=[punch1d], side="inner", pw=5, pu=2)
+        f2d = summ["contact"][0]["total_normal_force"] * SCALE
+        assert f2d == pytest.approx(s1.total_normal_force(), rel=2e-5)
+        np.testing.assert_allclose(_active_lines(res), np.round(s1.cx[s1.active], 9), atol=1e-9)
+        x = np.linspace(0.0, 1.0, 101)
+        w2d = res.solution.evaluate(x, np.full_like(x, math.radians(ANGLE / 2)), ("w",))["w"]
+        assert np.max(np.abs(w2d - s1.w(x))) <= 2e-4 * max(DELTA_S, float(np.max(np.abs(s1.w(x)))))
+    # the plug pushes outward exactly as the sleeve pushes inward (the linear problem is odd in w)
+    ref_in = sleeve_free_boundary(sh, Rp, C_S, side="inner")
+    ref_out = sleeve_reference[1]
+    assert ref_in.total_normal_force == pytest.approx(ref_out.total_normal_force, rel=1e-9)
