@@ -32,10 +32,21 @@ piecewise polynomials of degree ``pw`` ≥ 3 (Hermite cubic end values and slope
 
     Π_i = Z(M_i) + Z_x(M_i) (u − ζ w')_i + Z_ρ(M_i) w_i ≥ 0,   M_i = (x_i, a + ζ),  ζ = ±e,
 
-and the QP  min ½UᵀAU − FᵀU  s.t.  G + BU ≥ 0  is solved exactly through its dual
-(S = B A⁻¹ Bᵀ dense, primal–dual active set, Lawson–Hanson NNLS as a fallback, then an exact
-re-solve on the final active set and a KKT check). The multipliers Λ_i are ring forces per unit
-circumferential length of the mid-surface; the total force on the whole circumference is 2πa Σ Λ_i |∇Z_i|.
+and the QP  min ½UᵀAU − FᵀU  s.t.  G + BU ≥ 0  is solved exactly: an active-set guess from the dense dual
+(S = B A⁻¹ Bᵀ, Lawson–Hanson NNLS), then the Lawson–Hanson active-set method on the dual whose every
+subproblem is solved exactly by eliminating w at the active nodes (Π_i = 0) from the sparse SPD system
+(S itself is never trusted: its condition number grows like h⁻⁴), and a KKT check that raises on failure.
+The multipliers Λ_i are ring forces per unit circumferential length of the mid-surface; the total force on
+the whole circumference is 2πa Σ Λ_i |∇Z_i|.
+
+Round-off: the stiffness has cond ~ (βh)⁻⁴, so it is assembled in extended precision (np.longdouble) and
+every solve is refined with longdouble residuals against a float64 LU; this keeps ~1e-10 relative accuracy
+down to βh ≈ 5e-3 (float64 assembly lost it already at βh ≈ 1e-2). Do not refine below βh ~ 1e-3.
+
+API: Shell1D, graded_nodes / bisect (meshes), solve(...) -> AxisymSolution (w, u, N11, M11, contact_zone,
+force_per_length, total_normal_force, radial/axial force, edge_forces, kkt), CylinderPunch / TorusPunch,
+closed forms model_roots, ring_stiffness(_classical), ring_green, closed_form_pressure, and
+sleeve_free_boundary (contact band + edge ring with the band end found exactly).
 """
 
 from __future__ import annotations
@@ -454,7 +465,11 @@ def solve(
 
     ``pressure`` q (outward, per unit area) is a number or a function of x; ``rings`` are
     (x, P) outward ring loads per unit circumferential length at mesh nodes; ``punches`` are
-    CylinderPunch / TorusPunch acting on the ``side`` ("outer": ζ = +e, "inner": ζ = −e).
+    CylinderPunch / TorusPunch acting on the ``side`` ("outer": ζ = +e, "inner": ζ = −e), with the
+    constraint at every mesh node of their zones. ``initial_active(x) -> bool array`` overrides the
+    NNLS starting guess; ``w_band = (x_lo, x_hi, w)`` prescribes w ≡ w on whole elements (a bilateral
+    band, used by sleeve_free_boundary; its radial reaction is ``band_force``). Raises RuntimeError if the
+    KKT residuals exceed ``tol``.
     """
     if bc0 not in SUPPORTS or bc1 not in SUPPORTS:
         raise ValueError(f"supports must be among {SUPPORTS}")
