@@ -98,6 +98,8 @@ def test_sweep_csv_and_plots(tmp_path: Path) -> None:
     energy = [float(ln.split(",")[2]) for ln in lines[1:]]
     assert energy[0] > energy[1] > energy[2]  # a thicker roof stores less energy under its own load
     assert (tmp_path / "sw" / "sweep.png").stat().st_size > 1000
+    report = (tmp_path / "sw" / "report.html").read_text()
+    assert all(f">{e:.6g}<" in report for e in energy) and report.count("data:image/png;base64,") == 1
     assert "shell.thickness" in r.stdout
     # the middle step equals a single run with the same thickness
     cli("run", CASE, *SMALL, "--set", "shell.thickness=0.25", "-o", "one", "--no-figures", "--no-report", cwd=tmp_path)
@@ -173,6 +175,8 @@ def test_convergence(tmp_path: Path) -> None:
     header = (tmp_path / "cv" / "convergence.csv").read_text().splitlines()[0]
     assert header.startswith("level,refine,vertices,elements,dofs,h,energy,probe0_w,error_energy")
     assert (tmp_path / "cv" / "convergence.png").stat().st_size > 1000
+    report = (tmp_path / "cv" / "report.html").read_text()
+    assert all(f">{row['energy']:.6g}<" in report for row in rows) and "data:image/png;base64," in report
     assert "err energy" in r.stdout and f"{rows[2]['energy']:.6g}" in r.stdout
 
 

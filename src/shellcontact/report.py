@@ -194,3 +194,26 @@ def write_report(
     title = f"shellcontact: {Path(src).name}" if src else "shellcontact run"
     atomic_write_text(path, render(summary, getattr(result.case, "raw", {}), overrides, figures, title))
     return Path(path)
+
+
+def write_study_report(
+    path: str | Path,
+    title: str,
+    rows: list[Mapping[str, Any]],
+    figures: Mapping[str, bytes] | None = None,
+    about: Mapping[str, Any] | None = None,
+    inputs: Mapping[str, Any] | None = None,
+) -> Path:
+    """A self-contained page for a sweep or a convergence study: what was run, the table, the figures."""
+    cols: list[str] = []
+    for r in rows:
+        cols += [c for c in r if c not in cols]
+    sections = [
+        ("Study", table(list((about or {}).items()), ("", "value"))),
+        ("Results", table([[r.get(c) for c in cols] for r in rows], cols)),
+        ("Figures", "\n".join(image(n, b) for n, b in (figures or {}).items())),
+        ("Inputs", table(flatten(inputs or {}), ("key", "value"))),
+        ("Versions", table(list(versions().items()), ("package", "version"))),
+    ]
+    atomic_write_text(path, page(title, sections))
+    return Path(path)

@@ -26,7 +26,7 @@ from typing import Any
 
 from .case import Case
 from .errors import InputError
-from .io import atomic_write_text, write_json
+from .io import atomic_write_bytes, atomic_write_text, write_json
 from .overrides import apply_overrides, case_from_raw, split_path
 
 log = logging.getLogger("shellcontact")
@@ -288,10 +288,19 @@ def sweep(
         if figures:
             from . import plots
 
-            plots.plot_sweep(res.rows, param, out / "sweep.png")
-            res.files["sweep.png"] = out / "sweep.png"
-            if plots.plot_force_indentation(res.rows, param, out / "force_indentation.png") is not None:
-                res.files["force_indentation.png"] = out / "force_indentation.png"
+            pngs = {"sweep.png": plots.png_bytes(plots.plot_sweep(res.rows, param))}
+            fi = plots.plot_force_indentation(res.rows, param)
+            if fi is not None:
+                pngs["force_indentation.png"] = plots.png_bytes(fi)
+            for name, data in pngs.items():
+                atomic_write_bytes(out / name, data)
+                res.files[name] = out / name
+        from .report import write_study_report
+
+        about = {"case file": source, "parameter": param, "values": len(vals), "reused steps": reused}
+        res.files["report.html"] = write_study_report(
+            out / "report.html", f"shellcontact sweep: {param}", res.rows, pngs if figures else {}, about, case.raw
+        )
     return res
 
 
@@ -302,7 +311,7 @@ def clear_sweep_dir(path: str | Path) -> None:
     if steps.is_dir():
         for f in steps.glob("step-*.json"):
             f.unlink()
-    for name in ("sweep.csv", "sweep.json", "sweep.png", "force_indentation.png"):
+    for name in ("sweep.csv", "sweep.json", "sweep.png", "force_indentation.png", "report.html"):
         (path / name).unlink(missing_ok=True)
 
 
@@ -410,8 +419,20 @@ def convergence(
         if figures:
             from . import plots
 
-            plots.plot_convergence(rows, out / "convergence.png")
+            png = plots.png_bytes(plots.plot_convergence(rows))
+            atomic_write_bytes(out / "convergence.png", png)
             res.files["convergence.png"] = out / "convergence.png"
+        from .report import write_study_report
+
+        about = {"case file": str(case.source) if case.source else None, "levels": levels, "tracked": qname}
+        res.files["report.html"] = write_study_report(
+            out / "report.html",
+            "shellcontact convergence study",
+            rows,
+            {"convergence.png": png} if figures else {},
+            about,
+            case.raw,
+        )
     return res
 
 
