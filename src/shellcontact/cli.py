@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import inspect
 import logging
 import os
 import sys
@@ -59,6 +60,13 @@ class Console:
         self._drawn = True
         if done >= total:
             self.clear()
+
+    def status(self, message: str) -> None:
+        """A one-line status in place (terminals only), e.g. solver iterations."""
+        if self.bar:
+            self.stream.write(("\r" + message)[:120].ljust(121))
+            self.stream.flush()
+            self._drawn = True
 
     def clear(self) -> None:
         if self._drawn:
@@ -134,8 +142,18 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     check_output_dir(out, args.force)
     if args.force and out.is_dir():
         clear_run_files(out)
+    kwargs = {}
+    if con.bar and "progress" in inspect.signature(solve).parameters:
+        # solve(..., progress=f) calls f(iteration, residuals) once per solver iteration
+        def show(iteration: int, residuals: dict | None = None) -> None:
+            worst = max((v for v in (residuals or {}).values() if isinstance(v, float)), default=None)
+            con.status(f"solving: iteration {iteration}" + (f", largest residual {worst:.2e}" if worst else ""))
+
+        kwargs["progress"] = show
     t0 = time.perf_counter()
-    result = solve(case)
+    con.status("solving ...")
+    result = solve(case, **kwargs)
+    con.clear()
     log.info("solved in %.3f s", time.perf_counter() - t0)
     summary = result.summary()
     summary["case_file"] = str(args.case)
