@@ -10,7 +10,8 @@ two vertex columns the shell may sink into the sleeve. With two elements across 
 a·5° = 0.087 ≫ h_x) this lowers the sleeve force by 0.5 %, an error of the vertex constraint in φ and not of
 the shell model (it vanishes as nphi grows: 10.286, 10.332, 10.3375 for nphi = 2, 4, 8 at nx = 40). With
 1° (element width ≈ 0.0087 < h_x) the 2D discrete problem agrees with the 1D problem that constrains the
-same x-nodes to ~1e-5, and both converge to the exact free-boundary solution.
+same x-nodes to ~1e-5, and both converge to the exact free-boundary solution. The same effect on a full
+cylinder (last test) converges like Δφ³ and is −16 % with 24 elements around.
 """
 
 from __future__ import annotations
