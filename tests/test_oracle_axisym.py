@@ -207,3 +207,17 @@ def test_torus_large_interference_band_with_edge_rings():
     assert min(edge_sums) >= 0.4 * forces[-1]
     assert max(edge_sums) <= 1.2 * min(edge_sums)
     assert max(interior) <= 1.5 * min(interior)
+
+
+def test_oracle_is_independent_of_the_package():
+    """The oracle must not share code with shellcontact (numpy/scipy only)."""
+    import ast
+    import inspect
+
+    import oracles.axisym as mod
+
+    tree = ast.parse(inspect.getsource(mod))
+    names = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    names |= {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert not any(n.split(".")[0] == "shellcontact" for n in names)
+    assert {n.split(".")[0] for n in names} <= {"__future__", "math", "collections", "dataclasses", "numpy", "scipy"}
