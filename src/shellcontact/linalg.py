@@ -41,13 +41,24 @@ ENV_VAR = "SHELLCONTACT_BACKEND"
 _AVAILABLE: list[str] | None = None
 
 
+_MKL_PARDISO = None
+
+
+def _mkl_pardiso():
+    """MKL's pardiso entry point, found once through pypardiso (its lookup spawns ldconfig: slow)."""
+    global _MKL_PARDISO
+    if _MKL_PARDISO is None:
+        import pypardiso
+
+        _MKL_PARDISO = pypardiso.PyPardisoSolver(mtype=2)._mkl_pardiso
+    return _MKL_PARDISO
+
+
 def _pardiso_loads() -> bool:
     if importlib.util.find_spec("pypardiso") is None:
         return False
     try:
-        import pypardiso
-
-        pypardiso.PyPardisoSolver(mtype=2)  # finds and loads MKL's mkl_rt
+        _mkl_pardiso()
     except Exception:  # noqa: BLE001 — any failure to load MKL means "not available"
         return False
     return True
@@ -102,10 +113,8 @@ class _Pardiso:
     def __init__(self, A: sp.csr_matrix) -> None:
         import ctypes
 
-        import pypardiso
-
         self._ctypes = ctypes
-        self._mkl = pypardiso.PyPardisoSolver(mtype=2)._mkl_pardiso
+        self._mkl = _mkl_pardiso()
         self.pt = np.zeros(64, dtype=np.int64)
         self.iparm = np.zeros(64, dtype=np.int32)
         ip = self.iparm  # 0-based here; the MKL documentation counts from 1

@@ -1,0 +1,145 @@
+"""Shared helpers of the benchmark scripts: machine description, stage timing and peak memory, tables.
+
+Every measurement that reports memory runs in a fresh subprocess (``run_worker``), so that the
+peak resident set (``ru_maxrss``) belongs to that measurement alone; inside it, ``Stages``
+records per stage the wall time and the peak of Python/NumPy allocations (tracemalloc, which
+sees NumPy's buffers but not memory allocated inside MKL/CHOLMOD — those are covered by the
+process's maximum RSS). Wall time is what the targets mean; the process CPU time is recorded
+too because this machine's 2 cores are shared: under load the wall time of a single-threaded
+run overstates its cost, and the CPU time is the fairer figure for a ratio.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+import time
+import tracemalloc
+from contextlib import contextmanager
+from datetime import UTC, datetime
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+THREADS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+
+
+def machine() -> dict:
+    """CPU model, cores, memory, library versions: printed with every table."""
+    cpu = platform.processor() or "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mem_gb = None
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal"):
+                mem_gb = round(int(line.split()[1]) / 2**20, 1)
+    except OSError:
+        pass
+    import numpy
+    import scipy
+    import skfem
+
+    info = {
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "memory_gb": mem_gb,
+        "threads": {k: os.environ.get(k, "unset") for k in THREADS},
+        "python": platform.python_version(),
+        "numpy": numpy.__version__,
+        "scipy": scipy.__version__,
+        "scikit-fem": skfem.__version__ if hasattr(skfem, "__version__") else "?",
+        "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
+    }
+    try:
+        info["load_average"] = [round(x, 2) for x in os.getloadavg()]
+    except OSError:
+        pass
+    return info
+
+
+def machine_line(info: dict) -> str:
+    threads = ",".join(f"{k.split('_')[0]}={v}" for k, v in info["threads"].items())
+    return (
+        f"machine: {info['cpu']}, {info['cores']} cores, {info['memory_gb']} GB; threads "
+        f"{threads}; python {info['python']}, "
+        f"numpy {info['numpy']}, scipy {info['scipy']}, scikit-fem {info['scikit-fem']}; {info['date']}; "
+        f"load average at start {info.get('load_average')}"
+    )
+
+
+def single_thread_env() -> dict:
+    env = dict(os.environ)
+    for k in THREADS:
+        env.setdefault(k, "1")
+    return env
+
+
+class Stages:
+    """Wall time and peak traced allocation (bytes) of named stages."""
+
+    def __init__(self, trace_memory: bool = True) -> None:
+        self.times: dict[str, float] = {}
+        self.cpu: dict[str, float] = {}
+        self.peaks: dict[str, int] = {}
+        self.trace = trace_memory
+        if trace_memory and not tracemalloc.is_tracing():
+            tracemalloc.start()
+
+    @contextmanager
+    def stage(self, name: str):
+        if self.trace:
+            tracemalloc.reset_peak()
+            base = tracemalloc.get_traced_memory()[0]
+        t0, c0 = time.perf_counter(), time.process_time()
+        yield
+        self.times[name] = self.times.get(name, 0.0) + time.perf_counter() - t0
+        self.cpu[name] = self.cpu.get(name, 0.0) + time.process_time() - c0
+        if self.trace:
+            self.peaks[name] = max(self.peaks.get(name, 0), tracemalloc.get_traced_memory()[1] - base)
+
+
+def max_rss_bytes() -> int:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def emit(result: dict) -> None:
+    """Last line of a worker's stdout: its result as JSON."""
+    result["max_rss_bytes"] = max_rss_bytes()
+    sys.stdout.write("\n" + json.dumps(result) + "\n")
+    sys.stdout.flush()
+
+
+def run_worker(script: Path, args: list[str], timeout: float = 3600.0) -> dict:
+    """Run ``script --worker args`` in a fresh interpreter and return its JSON result."""
+    cmd = [sys.executable, str(script), "--worker", *args]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=single_thread_env(), timeout=timeout)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def table(headers: list[str], rows: list[list]) -> str:
+    def fmt(v):
+        if isinstance(v, float):
+            return f"{v:.3g}" if abs(v) < 1e4 else f"{v:.0f}"
+        return str(v)
+
+    cells = [[fmt(v) for v in r] for r in rows]
+    widths = [max(len(h), *(len(r[i]) for r in cells)) for i, h in enumerate(headers)]
+    line = "| " + " | ".join(h.ljust(w) for h, w in zip(headers, widths)) + " |"
+    sep = "|" + "|".join("-" * (w + 2) for w in widths) + "|"
+    body = ["| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |" for r in cells]
+    return "\n".join([line, sep, *body])
+
+
+def target(value, goal, unit, peer, **extra) -> dict:
+    return {"value": value, "goal": goal, "unit": unit, "peer": peer, **extra}

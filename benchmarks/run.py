@@ -1,0 +1,86 @@
+"""Run the benchmark targets of issue 5 and end with ONE JSON line of all targets.
+
+    python benchmarks/run.py            # full sizes (assembly at 32k triangles, solve at ~430k unknowns,
+                                        # scaling to ~1M dofs)
+    python benchmarks/run.py --quick    # small sizes, a few minutes
+
+Each script prints its own table (peer, ratio, machine). The last line printed here is
+
+    {"targets": {name: {"value": ..., "goal": ..., "unit": ..., "peer": ...}, ...}}
+
+for assembly_speedup, contact_vs_linear, speedup_vs_qp_peer, seconds_1M_dofs, peak_gb_1M_dofs and
+force_digits_1M_dofs. A target that this run does not measure has value null and a "reason".
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import common  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+NAMES = ("assembly_speedup", "contact_vs_linear", "speedup_vs_qp_peer", "seconds_1M_dofs", "peak_gb_1M_dofs",
+         "force_digits_1M_dofs")
+GOALS = {
+    "assembly_speedup": (30.0, "x over scikit-fem (basis + assembly)"),
+    "contact_vs_linear": (1.5, "contact solve seconds / (factorise + solve) seconds"),
+    "speedup_vs_qp_peer": (20.0, "x over the fastest generic QP solver"),
+    "seconds_1M_dofs": (60.0, "s, 1M-dof contact solve end to end"),
+    "peak_gb_1M_dofs": (16.0, "GB peak memory, 1M-dof contact solve"),
+    "force_digits_1M_dofs": (8.0, "significant digits of the contact force at 1M dofs"),
+}
+NOT_YET = ("no benchmark script for this target yet: it needs the contact solvers of src/shellcontact/solvers/ "
+           "(issue 5 items 3-6, not part of this run)")
+
+
+def run_script(name: str, args: list[str]) -> dict | None:
+    """Run benchmarks/<name>.py, stream its table, return its last JSON line."""
+    cmd = [sys.executable, str(HERE / f"{name}.py"), *args]
+    print(f"\n$ {' '.join(cmd[1:])}", flush=True)
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=common.single_thread_env())
+    lines = proc.stdout.strip().splitlines()
+    for line in lines[:-1]:
+        print(line)
+    if proc.returncode != 0:
+        print(proc.stderr[-3000:])
+        print(f"({name} failed after {time.perf_counter() - t0:.0f} s)")
+        return None
+    print(f"({name}: {time.perf_counter() - t0:.0f} s)", flush=True)
+    return json.loads(lines[-1])
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="small sizes (about 3 minutes)")
+    args = ap.parse_args(argv)
+    quick = ["--quick"] if args.quick else []
+    info = common.machine()
+    print(common.machine_line(info))
+    targets = {n: common.target(None, *GOALS[n][:1], GOALS[n][1], None, reason=NOT_YET) for n in NAMES}
+    asm = run_script("assembly", quick)
+    if asm:
+        targets["assembly_speedup"] = asm["targets"]["assembly_speedup"]
+        targets["assembly_speedup"].pop("machine", None)
+    else:
+        targets["assembly_speedup"]["reason"] = "benchmarks/assembly.py failed"
+    run_script("linear_solve", quick)
+    run_script("scaling", quick)
+    for name in ("contact_vs_linear", "speedup_vs_qp_peer", "one_million"):
+        if (HERE / f"{name}.py").exists():
+            res = run_script(name, quick)
+            for k, v in ((res or {}).get("targets") or {}).items():
+                targets[k] = v
+    out = {"targets": targets}
+    print(json.dumps(out))
+    return out
+
+
+if __name__ == "__main__":
+    main()
