@@ -519,3 +519,19 @@ def test_clamped_panel_has_spd_stiffness_and_free_panel_rigid_motions():
         t, w = (np.eye(3)[k], np.zeros(3)) if k < 3 else (np.zeros(3), np.eye(3)[k - 3])
         e = space.interpolate(rigid_motion(sol.shell, t, w))
         assert e @ (A @ e) <= 1e-8 * lam_ref * (e @ e)
+
+
+def test_case_file_reference_documents_every_contact_key():
+    """docs/case-file.md, section "Contact": every [[punch]] key, every shape and every [solver] key."""
+    from pathlib import Path
+
+    from shellcontact.case import SCHEMA
+    from shellcontact.punch import COMMON_KEYS, SHAPE_KEYS, SHAPES
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "case-file.md").read_text()
+    section = text[text.index("## Contact: [[punch]] and [solver]") :]
+    keys = set(COMMON_KEYS) | set().union(*SHAPE_KEYS.values()) | set(SCHEMA["solver"])
+    missing = sorted(k for k in keys if f"`{k}`" not in section)
+    assert not missing, f"undocumented keys: {missing}"
+    assert all(f'`"{s}"`' in section for s in SHAPES)
+    assert "placeholder" not in section.lower() and "is documented by the contact work" not in section
