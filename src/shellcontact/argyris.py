@@ -196,25 +196,26 @@ def dof_transformation(verts: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """
     n = verts.shape[0]
     J, K, _ = affine_maps(verts)
-    Vt = np.zeros((21, 21, n))  # transposed layout: every entry a contiguous vector
-    hs = ((0, 0), (0, 1), (1, 1))
+    # the vertex block, the same at the three vertices: [1] ⊕ Jᵀ ⊕ (Hessian transform by J)
+    blk = np.zeros((n, 6, 6))
+    blk[:, 0, 0] = 1.0
+    blk[:, 1:3, 1:3] = J.transpose(0, 2, 1)  # blk[1 + a, 1 + i] = J[i, a]
+    for r, (a_, b_) in enumerate(((0, 0), (0, 1), (1, 1))):
+        blk[:, 3 + r, 3] = J[:, 0, a_] * J[:, 0, b_]
+        blk[:, 3 + r, 4] = J[:, 0, a_] * J[:, 1, b_] + J[:, 1, a_] * J[:, 0, b_]
+        blk[:, 3 + r, 5] = J[:, 1, a_] * J[:, 1, b_]
+    Vi = np.zeros((n, 21, 21))
     for v in range(3):
-        b = 6 * v
-        Vt[b, b] = 1.0
-        for a_ in range(2):
-            for i in range(2):
-                Vt[b + 1 + a_, b + 1 + i] = J[:, i, a_]
-        for r, (a_, b_) in enumerate(hs):
-            Vt[b + 3 + r, b + 3] = J[:, 0, a_] * J[:, 0, b_]
-            Vt[b + 3 + r, b + 4] = J[:, 0, a_] * J[:, 1, b_] + J[:, 1, a_] * J[:, 0, b_]
-            Vt[b + 3 + r, b + 5] = J[:, 1, a_] * J[:, 1, b_]
+        Vi[:, 6 * v : 6 * v + 6, 6 * v : 6 * v + 6] = blk
     g = np.einsum("eai,eki->eka", K, normals)  # (n, 3, 2)
-    alpha = np.einsum("eka,ka->ek", g, _REF_N)
-    beta = np.einsum("eka,ka->ek", g, _REF_T)
-    for k in range(3):
-        Vt[18 + k, 18 + k] = 1.0 / alpha[:, k]
-        Vt[18 + k, :18] = -(beta[:, k] / alpha[:, k]) * np.tensordot(_REF_TAU[k, :18], Vt[:18, :18], axes=(0, 0))
-    return np.ascontiguousarray(Vt.transpose(2, 0, 1))
+    alpha = g[:, :, 0] * _REF_N[None, :, 0] + g[:, :, 1] * _REF_N[None, :, 1]
+    beta = g[:, :, 0] * _REF_T[None, :, 0] + g[:, :, 1] * _REF_T[None, :, 1]
+    for k, (i, j) in enumerate(EDGE_VERTICES):
+        Vi[:, 18 + k, 18 + k] = 1.0 / alpha[:, k]
+        ratio = (-beta[:, k] / alpha[:, k])[:, None]
+        for v in (i, j):  # τ_k vanishes on the dofs of the vertex opposite edge k
+            Vi[:, 18 + k, 6 * v : 6 * v + 6] = ratio * (_REF_TAU[k, 6 * v : 6 * v + 6] @ blk)
+    return Vi
 
 
 def reference_derivatives(X: np.ndarray) -> dict[tuple[int, int], np.ndarray]:

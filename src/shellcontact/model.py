@@ -221,10 +221,16 @@ class StiffnessPattern:
         indptr = np.zeros(ent_of_row.size + 1, dtype=np.int64)
         np.cumsum(rowlen, out=indptr[1:])
         nnz = int(indptr[-1])
-        shift = np.repeat(patstart[:-1][ent_of_row] - indptr[:-1], rowlen)
-        shift += np.arange(nnz)
         idx_type = np.int32 if nnz < 2**31 - 1 else np.int64
-        self.indices = pat[shift].astype(idx_type, copy=False)
+        # u rows, v rows and w facet rows are the entity patterns in order; w vertex rows repeat
+        # each vertex's pattern six times (one gather)
+        nvpat = int(patstart[nv])
+        rl = L[:nv].repeat(6)
+        start = np.repeat(patstart[:nv], 6) - np.concatenate([[0], np.cumsum(rl)[:-1]])
+        shift = np.repeat(start.astype(idx_type), rl)
+        shift += np.arange(shift.size, dtype=idx_type)
+        pat = pat.astype(idx_type, copy=False)
+        self.indices = np.concatenate([pat, pat, pat[shift], pat[nvpat:]])
         del shift
         self.indptr = indptr.astype(idx_type)
         self.shape = (space.ndofs, space.ndofs)
@@ -252,7 +258,7 @@ class StiffnessPattern:
         col[:, :, 6:12] = ou + dg[:, :, None]
         col[:, :, 12:30] = (ow[:, :, 0:3, None] + np.arange(6)).reshape(n, 6, 18)
         col[:, :, 30:33] = ow[:, :, 3:6]
-        pos = col[:, _ENT_OF_LOCAL, :]  # (n, 33, 33)
+        pos = np.take(col, _ENT_OF_LOCAL, axis=1)  # (n, 33, 33), C-contiguous
         pos += self._indptr_t[self._dofs[:, e]].T[:, :, None]
         return pos
 
