@@ -62,8 +62,7 @@ def test_run_summary_and_overrides(tmp_path: Path) -> None:
     assert "wrote" in (tmp_path / "run.log").read_text()
 
     # the same case through the Python API gives the same numbers
-    from shellcontact import solve
-    from shellcontact.overrides import load_case
+    from shellcontact import load_case, solve
 
     # (this process may use other BLAS/PARDISO thread counts: equal up to round-off)
     ref = solve(load_case(CASE, ["mesh.nx=4", "mesh.nphi=4"])).summary()

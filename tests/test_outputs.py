@@ -116,8 +116,7 @@ def test_report_contains_summary_numbers(run_dir: Path, summary: dict) -> None:
 # -- contact plumbing (prescribed arrays on a solved result) ------------------------------------------------
 @pytest.fixture(scope="module")
 def contact_result():
-    from shellcontact import solve
-    from shellcontact.overrides import load_case
+    from shellcontact import load_case, solve
 
     result = solve(load_case(CASE, SETS))
     x, s = result.solution.space.mesh.p
@@ -213,10 +212,10 @@ def test_pressure_lines_pass_through_peak(contact_result) -> None:
 def test_contact_vertex_arrays_gather_operator_rows() -> None:
     """Row values of a real contact operator (paper's panel) gathered on the mesh vertices keep
     their sums: Σ contact_force = Σ Λ, Σ contact_force_vector = the punch resultant Σ Λ_i ∇Z_i."""
+    from shellcontact import load_case
     from shellcontact.case import build_mesh
     from shellcontact.contact import contact_operator
     from shellcontact.io import contact_vertex_arrays
-    from shellcontact.overrides import load_case
     from shellcontact.punch import fitted_lines, punches_from_case
     from shellcontact.spaces import ShellSpace
 

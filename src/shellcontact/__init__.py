@@ -10,6 +10,7 @@ from .analysis import Result, solve
 from .case import Case, case_from_dict, load_case
 from .errors import InputError, ShellContactError, SolverError
 from .geometry import Shell
+from .studies import convergence, sweep
 
 __version__ = "0.1.0"
 
@@ -21,7 +22,9 @@ __all__ = [
     "ShellContactError",
     "SolverError",
     "case_from_dict",
+    "convergence",
     "load_case",
     "solve",
+    "sweep",
     "__version__",
 ]

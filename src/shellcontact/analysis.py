@@ -23,6 +23,7 @@ import numpy as np
 
 from . import model
 from .case import Case, build_mesh
+from .contact import POINTS as CONTACT_POINTS
 from .contact import ContactOperator, contact_operator, penetration_outside
 from .errors import InputError
 from .linalg import factorize
@@ -57,7 +58,8 @@ class Timer:
         return _Stage()
 
     def total(self) -> dict[str, float]:
-        return {**self.times, "total": time.perf_counter() - self._t0}
+        """Seconds per stage; ``output`` is 0 until the result is written (io.write_outputs adds it)."""
+        return {"output": 0.0, **self.times, "total": time.perf_counter() - self._t0}
 
 
 @dataclass
@@ -71,6 +73,7 @@ class SolverOptions:
     max_iterations: int | None = None
     backend: str = "auto"
     nested: bool = False
+    contact_points: str = "vertices"
 
     @classmethod
     def from_case(cls, case: Case, method: str | None = None) -> SolverOptions:
@@ -101,8 +104,11 @@ class SolverOptions:
         backend = d.get("backend", "auto")
         if not isinstance(backend, str):
             raise InputError("solver.backend", f"must be a string, got {backend!r}")
+        points = d.get("contact_points", "vertices")
+        if points not in CONTACT_POINTS:
+            raise InputError("solver.contact_points", f"must be one of {', '.join(CONTACT_POINTS)}, got {points!r}")
         return cls(m, float(tol), None if eps is None else float(eps), tuple(float(c) for c in cont), it,
-                   backend, nested)
+                   backend, nested, points)
 
 
 def default_penalty(case: Case) -> float:
@@ -153,6 +159,56 @@ class Result:
     info: dict[str, Any] = field(default_factory=dict)
     contact: ContactResult | None = None
     punches: list[Punch] = field(default_factory=list)
+
+    # -- outputs (thin wrappers over io, plots and report) ---------------------------------
+    def write(self, directory, **kw) -> dict:
+        """Write the run directory (summary.json, fields.vtu, results.npz, figures, report.html)."""
+        from .io import write_outputs
+
+        return write_outputs(self, directory, **kw)
+
+    def to_vtu(self, path):
+        """The 3D shell surface with all vertex fields, for ParaView (via meshio)."""
+        from .io import write_vtu
+
+        return write_vtu(self, path)
+
+    def to_npz(self, path):
+        from .io import write_npz
+
+        return write_npz(self, path)
+
+    def vertex_fields(self) -> dict[str, np.ndarray]:
+        from .io import vertex_fields
+
+        return vertex_fields(self)
+
+    def plot_deflection(self, path=None):
+        from .plots import plot_deflection
+
+        return plot_deflection(self, path)
+
+    def plot_deformed(self, path=None, scale=None):
+        from .plots import plot_deformed
+
+        return plot_deformed(self, path, scale)
+
+    def plot_pressure(self, path=None):
+        """Contact-pressure map with the contact boundary (None without contact)."""
+        from .plots import plot_pressure
+
+        return plot_pressure(self, path)
+
+    def plot_pressure_profiles(self, path=None, x=None, phi=None):
+        from .plots import plot_pressure_profiles
+
+        return plot_pressure_profiles(self, path, x, phi)
+
+    def report(self, path):
+        """A self-contained HTML page of this run."""
+        from .report import write_report
+
+        return write_report(self, path)
 
     def summary(self) -> dict[str, Any]:
         sol = self.solution
@@ -209,7 +265,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
         F = load_vector(space, case.loads)
         red = Reduction.build(space, case.supports)
         Ar, Fr = red.reduce_matrix(A), red.reduce_vector(F)
-        op = contact_operator(space, punches) if punches else None
+        op = contact_operator(space, punches, opts.contact_points) if punches else None
     with timer.stage("factorization"):
         fac = factorize(Ar, opts.backend)
     info: dict[str, Any] = {"backend": fac.backend, "unknowns": int(Ar.shape[0])}

@@ -7,10 +7,12 @@ docs/case-file.md.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import importlib
 import math
 import tomllib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,7 +31,8 @@ SCHEMA: dict[str, set[str]] = {
     "mesh": {"nx", "nphi", "refine", "pattern", "file", "grading", "x_lines", "phi_lines"},
     "loads": {"normal", "surface", "point", "line"},
     "probes": {"x", "phi"},
-    "solver": {"method", "tolerance", "penalty", "max_iterations", "backend", "continuation", "nested"},
+    "solver": {"method", "tolerance", "penalty", "max_iterations", "backend", "continuation", "nested",
+               "contact_points"},
     "punch": set(),  # validated by the contact layer
 }
 REQUIRED = ("shell",)
@@ -236,8 +239,22 @@ def _check_inside(shell: Shell, where: str, x: float, phi: float) -> None:
         raise InputError(f"{where}.phi", f"{deg:.6g} deg lies outside [{lo:.6g}, {hi:.6g}] deg")
 
 
-def case_from_dict(data: dict, source: Path | None = None) -> Case:
-    """Validate a case given as a (TOML-shaped) dictionary."""
+def _check_mesh_lines(shell: Shell, ms: MeshSpec) -> None:
+    """Grading foci and required node lines must lie on the shell."""
+    tol = 1e-9 * max(shell.length, 1.0)
+    for key, vals in (("mesh.grading.x", ms.grading_x), ("mesh.x_lines", ms.x_lines)):
+        for v in vals:
+            if not shell.x_min - tol <= v <= shell.x_max + tol:
+                raise InputError(key, f"{v:.6g} lies outside [{shell.x_min:.6g}, {shell.x_max:.6g}]")
+    for key, vals in (("mesh.grading.phi", ms.grading_phi), ("mesh.phi_lines", ms.phi_lines)):
+        for v in vals:
+            if not shell.alpha - 1e-9 <= v <= shell.beta + 1e-9:
+                lo, hi = math.degrees(shell.alpha), math.degrees(shell.beta)
+                raise InputError(key, f"{math.degrees(v):.6g} deg lies outside [{lo:.6g}, {hi:.6g}] deg")
+
+
+def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
+    """Validate a case given as a (TOML-shaped) dictionary; a relative mesh.file is read beside ``source``."""
     _unknown("", data, SCHEMA)
     for sec in REQUIRED:
         if sec not in data:
@@ -275,34 +292,46 @@ def case_from_dict(data: dict, source: Path | None = None) -> Case:
     loads = parse_loads(data.get("loads", {}))
     for i, pt in enumerate(loads.points):
         _check_inside(shell, f"loads.point.{i}", pt.x, pt.phi)
+    mesh = parse_mesh(data.get("mesh", {}))
+    _check_mesh_lines(shell, mesh)
+    if source is not None and mesh.file and not Path(mesh.file).is_absolute():
+        mesh = dataclasses.replace(mesh, file=str(Path(source).parent / mesh.file))
     return Case(
         shell=shell,
         supports=supports,
-        mesh=parse_mesh(data.get("mesh", {})),
+        mesh=mesh,
         loads=loads,
         probes=probes,
         solver=dict(solver),
         punches=[dict(p) for p in punches],
-        source=source,
+        source=None if source is None else Path(source),
         raw=data,
     )
 
 
-def load_case(path: str | Path) -> Case:
-    """Read and validate a TOML case file."""
+def read_case_dict(path: str | Path) -> dict[str, Any]:
+    """The raw TOML dictionary of a case file, with clear errors for unreadable or malformed files."""
     path = Path(path)
     try:
         text = path.read_text()
     except OSError as exc:
         raise InputError("case", f"cannot read {str(path)!r}: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise InputError("case", f"{str(path)!r} is not a UTF-8 text file") from None
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError("case", f"malformed TOML in {str(path)!r}: {exc}") from None
-    case = case_from_dict(data, source=path)
-    if case.mesh.file and not Path(case.mesh.file).is_absolute():
-        case.mesh = MeshSpec(**{**case.mesh.__dict__, "file": str(path.parent / case.mesh.file)})
-    return case
+
+
+def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:
+    """Read and validate a TOML case file; ``sets`` are ``key=value`` overrides (``--set``)."""
+    data = read_case_dict(path)
+    if sets:
+        from .overrides import apply_overrides, parse_assignment
+
+        data = apply_overrides(data, [parse_assignment(s) for s in sets])
+    return case_from_dict(data, source=Path(path))
 
 
 def build_mesh(case: Case, extra_x=(), extra_phi=()) -> ShellMesh:

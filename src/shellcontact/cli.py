@@ -102,7 +102,7 @@ def _sets(args: argparse.Namespace) -> list[str]:
 
 
 def _load(args: argparse.Namespace):
-    from .overrides import load_case
+    from .case import load_case
 
     sets = _sets(args)
     case = load_case(args.case, sets)

@@ -10,14 +10,12 @@ validated exactly like a case file, so unknown keys and bad values get the usual
 from __future__ import annotations
 
 import copy
-import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping
-from pathlib import Path
 from typing import Any
 
-from .case import Case, MeshSpec, case_from_dict
+from .case import Case, case_from_dict
 from .errors import InputError
 
 _BARE = re.compile(r"^[^\s\[\]{}\"'=,#]+$")  # a word or a path: taken as a string
@@ -101,53 +99,8 @@ def apply_overrides(data: dict[str, Any], assignments: Mapping[str, Any] | Itera
     return out
 
 
-def case_from_raw(data: dict[str, Any], source: str | Path | None = None) -> Case:
-    """Validate a raw case dictionary; a relative ``mesh.file`` is resolved against ``source``."""
-    source = Path(source) if source is not None else None
-    case = case_from_dict(data, source=source)
-    _check_probes(case)
-    if source is not None and case.mesh.file and not Path(case.mesh.file).is_absolute():
-        case.mesh = MeshSpec(**{**case.mesh.__dict__, "file": str(source.parent / case.mesh.file)})
-    return case
-
-
-def _check_probes(case: Case) -> None:
-    """Probes must lie on the shell (named by their key, before any assembly)."""
-    sh = case.shell
-    tol = 1e-9 * max(sh.length, sh.radius)
-    for i, (x, phi) in enumerate(case.probes):
-        if not sh.x_min - tol <= x <= sh.x_max + tol:
-            raise InputError(f"probes.{i}.x", f"must lie in [{sh.x_min:.6g}, {sh.x_max:.6g}], got {x:.6g}")
-        if not sh.full and not sh.alpha - tol / sh.radius <= phi <= sh.beta + tol / sh.radius:
-            lo, hi = math.degrees(sh.alpha), math.degrees(sh.beta)
-            got = math.degrees(phi)
-            raise InputError(f"probes.{i}.phi", f"must lie in [{lo:.6g}, {hi:.6g}] degrees, got {got:.6g}")
-
-
-def read_case_dict(path: str | Path) -> dict[str, Any]:
-    """The raw TOML dictionary of a case file (errors as in ``load_case``)."""
-    path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InputError("case", f"cannot read {str(path)!r}: {exc.strerror}") from None
-    except UnicodeDecodeError:
-        raise InputError("case", f"{str(path)!r} is not a UTF-8 text file") from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError("case", f"malformed TOML in {str(path)!r}: {exc}") from None
-
-
-def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:
-    """Read a case file and apply ``--set`` strings (``key=value``) before validation."""
-    assignments = [parse_assignment(s) for s in sets]
-    data = read_case_dict(path)
-    return case_from_raw(apply_overrides(data, assignments), source=path)
-
-
 def override_case(case: Case, assignments: Mapping[str, Any]) -> Case:
     """A new validated case: ``case.raw`` with the assignments (dotted paths) applied."""
     if not case.raw:
         raise InputError("case", "overrides need a case built from a case file or dictionary (case.raw is empty)")
-    return case_from_raw(apply_overrides(case.raw, assignments), source=case.source)
+    return case_from_dict(apply_overrides(case.raw, assignments), source=case.source)

@@ -24,10 +24,10 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
-from .case import Case
+from .case import Case, case_from_dict
 from .errors import InputError
 from .io import atomic_write_bytes, atomic_write_text, write_json
-from .overrides import apply_overrides, case_from_raw, split_path
+from .overrides import apply_overrides, split_path
 
 log = logging.getLogger("shellcontact")
 
@@ -193,7 +193,7 @@ def _step_row(param: str, value: Any, summary: dict[str, Any]) -> dict[str, Any]
 
 def _worker(raw: dict, source: str | None, param: str, index: int, value: Any, steps: str | None, fp: str):
     """One sweep step in a separate process (the case is re-validated from its raw dictionary)."""
-    case = case_from_raw(raw, source=source)
+    case = case_from_dict(raw, source=source)
     _, summary = _solve_summary(case)
     row = _step_row(param, value, summary)
     if steps is not None:
@@ -228,7 +228,7 @@ def sweep(
     source = str(case.source) if case.source is not None else None
     # validate every step's case before any work, so a bad parameter fails at once
     step_raws = [_step_raw(case, param, v) for v in vals]
-    case_from_raw(step_raws[0], source=source)
+    case_from_dict(step_raws[0], source=source)
     fps = [_fingerprint(r, source) for r in step_raws]
     out = Path(output_dir) if output_dir is not None else None
     steps = out / "steps" if out is not None else None
@@ -269,7 +269,7 @@ def sweep(
     else:
         previous: tuple[int, Any] = (-2, None)
         for i in todo:
-            step_case = case_from_raw(step_raws[i], source=source)
+            step_case = case_from_dict(step_raws[i], source=source)
             result, summary = _solve_summary(step_case, previous[1] if previous[0] == i - 1 else None)
             previous = (i, result)
             rows[i], sums[i] = _step_row(param, vals[i], summary), summary
@@ -368,7 +368,7 @@ def convergence(
     for lv in range(levels):
         if progress:
             progress(lv, levels, f"level {lv} (refine {r0 + lv})")
-        c = case_from_raw(apply_overrides(case.raw, {"mesh.refine": r0 + lv}), source=case.source)
+        c = case_from_dict(apply_overrides(case.raw, {"mesh.refine": r0 + lv}), source=case.source)
         result, summary = _solve_summary(c)
         name, q = _quantity(summary)
         qname = qname or name
