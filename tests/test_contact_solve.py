@@ -224,6 +224,46 @@ def test_roller_line_force_sums_converge():
     assert np.all(np.diff(peak) > 0)  # no pointwise limit: a line force
 
 
+def test_flat_punch_reaction_concentrates_at_the_strip_edges():
+    """A flat punch (plane) pushed 10 mm into the crown flattens a strip |φ − 90°| ≤ φ_c. Kirchhoff
+    theory puts most of the reaction into line forces along the strip edges (inside, the flattened
+    shell needs only a small pressure). Measured by line sums Σ Λ per generator φ = const: the
+    total converges, the strip edge converges, and the central half of the strip carries far less
+    than half of the force (a uniform pressure would give one half)."""
+    rows = []
+    for r in range(4):
+        d = roller_dict(nx=4, nphi=8, refine=r)
+        d["punch"] = [
+            {
+                "shape": "plane",
+                "center": [0.0, 0.0, 1.1],
+                "normal": [0.0, 0.0, -1.0],
+                "indentation": 1e-2,
+                "zone": {"x": [-0.5, 0.5], "phi": [75.0, 105.0]},
+            }
+        ]
+        res = solve(case_from_dict(d))
+        op, Lam, g = res.contact.operator, res.contact.Lambda, res.contact.gap
+        closed = g <= 1e-9 * np.abs(op.G).max()
+        dphi = np.abs(op.phi - math.pi / 2)
+        half_width = float(dphi[closed].max())
+        total = float(Lam.sum())
+        central = float(Lam[dphi < 0.5 * half_width].sum()) / total
+        lines = np.unique(np.round(dphi[closed], 12))
+        h = float(np.min(np.diff(np.unique(np.round(op.phi, 12)))))
+        rows.append(
+            (r, res.summary()["dofs"], int(closed.sum()), total, math.degrees(half_width), central, lines.size, h)
+        )
+    print("\nflat punch: refine dofs  closed  total force [N]  strip half-width [deg]  central-half share  lines")
+    for row in rows:
+        print(f"  {row[0]}  {row[1]:6d}  {row[2]:4d}  {row[3]:.6e}  {row[4]:.4f}  {row[5]:.3f}  {row[6]}")
+    F = np.array([row[3] for row in rows])
+    assert np.all(np.abs(np.diff(F))[1:] < np.abs(np.diff(F))[:-1])  # totals converge
+    assert abs(math.radians(rows[3][4] - rows[2][4])) <= rows[2][7]  # the edge settles within one cell
+    assert rows[3][6] >= 6  # the strip spans several generators
+    assert rows[3][5] < 0.25 and rows[2][5] < 0.25  # the edges carry the load
+
+
 def test_sphere_total_force_across_solvers_and_meshes():
     """The sphere's reaction concentrates at the edge of a small contact zone: compare the total
     normal force Σ Λ_i |∇Z_i| (and the resultant) between solvers and under refinement."""
@@ -245,7 +285,10 @@ def test_sphere_total_force_across_solvers_and_meshes():
     for t in table:
         print(f"  {t[0]}  {t[1]:6d}  {t[2]:3d}  {t[3]:.6e}  {t[4]:.4e}")
     F = np.array([t[3] for t in table])
-    assert abs(F[2] - F[1]) < 0.1 * abs(F[1] - F[0])
+    peak = np.array([t[4] for t in table])
+    # the total settles (< 1 % change from level 1 to 2) while the peak nodal pressure does not
+    assert abs(F[2] - F[1]) <= 0.01 * F[2]
+    assert np.all(np.abs(np.diff(peak)) > 0.3 * peak[1:])
     assert table[2][2] >= 10  # on the finest level the contact zone covers many vertices
 
 
