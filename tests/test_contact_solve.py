@@ -6,9 +6,10 @@ Two small cases are used throughout:
   its two straight edges (φ = 60°, 120°) and free at its curved ends, pressed on its crown by a
   parallel roller (rigid cylinder of radius 0.5 m, axis along x) with a prescribed indentation.
   In Kirchhoff theory the contact reaction of a roller is a **line force** along the generator
-  φ = 90°: the active set is one row of vertices (all of them vertices of the mesh, so the
-  contact zone covers several vertices: 9–31 depending on the level), and the right measure is
-  the line sum Σ Λ_i along it, not the nodal pressure Λ_i/ω_i (which grows like 1/h).
+  φ = 90°: the active set is one row of vertices (5–31 of them depending on the level), and the
+  right measure is the line sum Σ Λ_i along it, not the nodal pressure Λ_i/ω_i (which grows like
+  1/h). With a flat punch (plane, 10 mm) the same panel is flattened over a strip of several
+  generators, and the reaction concentrates in line forces along the strip edges.
 * **sphere** — the paper's problem (cases/paper_panel.toml: panel clamped on its whole boundary,
   spherical punch above the crown) on a coarse mesh graded toward the punch.
 
