@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import re
+import subprocess
+import sys
 import time
 
 import pytest
@@ -21,17 +24,20 @@ SEED_RESULTS = (
 
 
 @pytest.fixture(scope="module")
-def verify_output():
-    """One run of the command through the CLI entry point (in-process: the same code as the script)."""
-    mp = pytest.MonkeyPatch()
-    lines: list[str] = []
-    mp.setattr("builtins.print", lambda *a, **k: lines.append(" ".join(str(x) for x in a)))
+def verify_output(tmp_path_factory):
+    """One run of ``shellcontact verify`` as a subprocess (exit status, stdout, seconds)."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
     t0 = time.perf_counter()
-    try:
-        rc = cli.main(["verify"])
-    finally:
-        mp.undo()
-    return rc, "\n".join(lines), time.perf_counter() - t0
+    r = subprocess.run(
+        [sys.executable, "-m", "shellcontact.cli", "verify"],
+        cwd=tmp_path_factory.mktemp("verify"),
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert "Traceback" not in r.stderr, r.stderr
+    return r.returncode, r.stdout, time.perf_counter() - t0
 
 
 def test_verify_passes_and_prints_the_table(verify_output):
