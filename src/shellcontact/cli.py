@@ -193,7 +193,7 @@ def cmd_demo(args: argparse.Namespace, con: Console) -> int:
 
 def cmd_verify(args: argparse.Namespace, con: Console) -> int:
     run_verify = _lazy("verify", "run_verify", "verify")
-    rc = run_verify()
+    rc = run_verify(quiet=args.quiet)
     if isinstance(rc, bool) or rc is None:
         return EXIT_OK if rc in (True, None) else EXIT_FAIL
     return int(rc)
