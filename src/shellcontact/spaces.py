@@ -154,17 +154,25 @@ class ShellSpace:
 
             m = self.mesh.mesh
             self._finder = cKDTree(m.p[:, m.t].mean(axis=1).T)
-        k = min(24, self.mesh.nelements)
-        _, cand = self._finder.query(np.c_[x, s], k=k)
-        cand = cand.reshape(x.size, k)
         best = np.full(x.size, -1)
         best_val = np.full(x.size, -np.inf)
-        for j in range(k):
-            e = cand[:, j]
-            X = self.physical_to_reference(e, x, s)
-            lam = np.min(np.vstack([X[0], X[1], 1 - X[0] - X[1]]), axis=0)
-            better = lam > best_val
-            best[better], best_val[better] = e[better], lam[better]
+        todo = np.arange(x.size)
+        k = min(24, self.mesh.nelements)
+        while True:
+            # nearest centroids first; on strongly graded (slender) elements the containing one can
+            # lie farther away, so points not found are retried with more candidates
+            _, cand = self._finder.query(np.c_[x[todo], s[todo]], k=k)
+            cand = cand.reshape(todo.size, k)
+            for j in range(k):
+                e = cand[:, j]
+                X = self.physical_to_reference(e, x[todo], s[todo])
+                lam = np.min(np.vstack([X[0], X[1], 1 - X[0] - X[1]]), axis=0)
+                better = lam > best_val[todo]
+                best[todo[better]], best_val[todo[better]] = e[better], lam[better]
+            todo = todo[best_val[todo] < -1e-8]
+            if todo.size == 0 or k == self.mesh.nelements:
+                break
+            k = min(8 * k, self.mesh.nelements)
         bad = best_val < -1e-8
         if np.any(bad):
             i = int(np.nonzero(bad)[0][0])
