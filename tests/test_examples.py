@@ -1,0 +1,206 @@
+"""Every case file in examples/ solves, on a coarsened mesh, to a physically sensible answer.
+
+Generic checks for EVERY ``examples/*.toml`` (coarsened through ``--set``-style overrides of
+mesh.nx, mesh.nphi, mesh.refine so each solve takes a few seconds):
+
+* positive strain energy, a converged contact solve (no penetration, no tensile force);
+* global equilibrium (MODEL.md Lemma 7): reactions + contact forces + applied loads vanish up to
+  the interpolation error of the rigid translations, bounded by |a(U, I_h e_k)| <= |U|_A |I_h e_k|_A.
+
+Example-specific checks: the direction and size of the contact forces, symmetry where the setup
+is symmetric, contact where it is expected, the ovalisation of a crushed pipe, the clamp force of
+an interference fit, the prescribed force of a force-controlled punch, and a monotone
+force–indentation curve in a sweep.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import shellcontact as sc
+from shellcontact.geometry import rigid_motion
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+# coarse meshes (each solve < ~5 s on one core); unknown (future) examples get DEFAULT
+DEFAULT = ("mesh.nx=8", "mesh.nphi=8", "mesh.refine=0")
+COARSE = {
+    # "crossed" cells and node lines on the mirror planes: a mesh as symmetric as the setup
+    "paper_panel": ("mesh.nx=12", "mesh.nphi=12", "mesh.refine=0", "mesh.pattern=crossed"),
+    "pipe_transverse_bar": ("mesh.nx=16", "mesh.nphi=32", "mesh.refine=0", "mesh.pattern=crossed",
+                            "mesh.phi_lines=[0.0,180.0,270.0]"),
+    "band_clamp": ("mesh.nx=60", "mesh.nphi=12", "mesh.refine=0", "mesh.x_lines=[-0.0075,0.0,0.0075]"),
+    "saddle_support": ("mesh.nx=32", "mesh.nphi=32", "mesh.refine=0", "mesh.pattern=crossed",
+                       "mesh.phi_lines=[0.0,180.0]"),
+    "force_indentation_sweep": ("mesh.nx=16", "mesh.nphi=16", "mesh.refine=0"),
+    "pinched_cylinder_full": ("mesh.nx=8", "mesh.nphi=24", "mesh.refine=0"),
+    "pressurized_cylinder": ("mesh.nx=20", "mesh.nphi=1", "mesh.refine=0"),
+}
+FILES = sorted(EXAMPLES.glob("*.toml"))
+
+_cache: dict[str, sc.Result] = {}
+
+
+def solved(name: str) -> sc.Result:
+    if name not in _cache:
+        case = sc.load_case(EXAMPLES / f"{name}.toml", sets=COARSE.get(name, DEFAULT))
+        _cache[name] = sc.solve(case)
+    return _cache[name]
+
+
+def contact(res: sc.Result, k: int = 0) -> dict:
+    return res.summary()["contact"][k]
+
+
+def w_at(res: sc.Result, x, phi_deg) -> np.ndarray:
+    sol = res.solution
+    return sol.evaluate(np.asarray(x, float), np.radians(np.asarray(phi_deg, float)), ("w",))["w"]
+
+
+def test_every_example_has_coarse_settings_and_a_header():
+    assert len(FILES) >= 9
+    for f in FILES:
+        text = f.read_text()
+        assert text.lstrip().startswith("#"), f"{f.name}: no header comment"
+    for name in ("pipe_transverse_bar", "band_clamp", "saddle_support", "force_indentation_sweep"):
+        assert "shellcontact " in (EXAMPLES / f"{name}.toml").read_text(), f"{name}: no command in the header"
+
+
+@pytest.mark.parametrize("path", FILES, ids=[f.stem for f in FILES])
+def test_example_solves_in_equilibrium(path):
+    res = solved(path.stem)
+    s = res.summary()
+    sol = res.solution
+    assert s["energy"] > 0 and math.isfinite(s["energy"])
+    assert s["max_abs_w"] > 0
+    # equilibrium: R + Σ contact + applied = a(U, I_h e_k), bounded by Cauchy–Schwarz
+    R = sol.reaction_resultant()
+    cf, normal = np.zeros(3), 0.0
+    if res.contact is not None:
+        cf = res.contact.operator.resultant(res.contact.Lambda).sum(axis=0)
+        normal = float(res.contact.operator.total_normal_force(res.contact.Lambda).sum())  # self-balanced too
+        kkt = s["kkt"]
+        scale_len = max(s["max_abs_w"], 1e-300)
+        assert kkt["penetration"] <= 1e-8 * scale_len
+        assert kkt["dual_feasibility"] == 0.0
+        assert all(c["total_normal_force"] > 0 for c in s["contact"]), "every punch should touch"
+    uA = math.sqrt(sol.U @ (sol.A @ sol.U))
+    imbalance, bounds = np.zeros(3), np.zeros(3)
+    applied, applied_abs = np.zeros(3), np.zeros(3)
+    for k in range(3):
+        e = sol.space.interpolate(rigid_motion(sol.shell, np.eye(3)[k], np.zeros(3)))
+        applied[k] = sol.F @ e
+        bounds[k] = uA * math.sqrt(max(e @ (sol.A @ e), 0.0))
+        applied_abs[k] = np.abs(sol.F) @ np.abs(e)  # self-balanced loads (two opposite pinches)
+    imbalance = R + cf + applied
+    scale = np.linalg.norm(R) + np.linalg.norm(cf) + np.linalg.norm(applied_abs) + normal
+    print(f"\n{path.stem}: dofs {s['dofs']}, reactions {R}, contact {cf}, applied {applied}, "
+          f"relative imbalance {np.linalg.norm(imbalance) / scale:.1e}")
+    print(f"  imbalance {imbalance}, bound |U|_A |I_h e|_A {bounds}")
+    assert np.all(np.abs(imbalance) <= bounds * 1.001 + 1e-9 * scale)
+    assert np.linalg.norm(imbalance) <= 2e-2 * scale  # the bound is not vacuous on these meshes
+
+
+def test_pipe_transverse_bar():
+    """Bar pushed down 4 mm on the crown: force down, crown at −4 mm (or beyond: lift-off inside
+    the patch), the section ovalises (invert up, flanks out), symmetric about x = 0 and about
+    the vertical plane; contact only near the crown."""
+    res = solved("pipe_transverse_bar")
+    c = contact(res)
+    ind = res.case.raw["punch"][0]["indentation"]
+    assert c["force"][2] < 0 and c["force_magnitude"] > 0
+    assert abs(c["force"][0]) < 1e-6 * c["force_magnitude"] and abs(c["force"][1]) < 1e-6 * c["force_magnitude"]
+    crown, invert, flank0, flank180 = w_at(res, [0, 0, 0, 0], [90, 270, 0, 180])
+    assert crown <= -ind * (1 - 1e-9)
+    assert invert < 0 < flank0 and flank180 > 0  # ovalisation: top and bottom in, flanks out
+    assert abs(flank0 - flank180) <= 1e-6 * abs(flank0)
+    # mirror symmetry x -> -x and phi -> 180 - phi
+    x, p = np.array([0.05, 0.1, 0.2]), np.array([80.0, 60.0, 30.0])
+    assert np.allclose(w_at(res, x, p), w_at(res, -x, p), rtol=1e-6, atol=1e-9 * ind)
+    assert np.allclose(w_at(res, x, p), w_at(res, x, 180 - p), rtol=1e-6, atol=1e-9 * ind)
+    op, lam = res.contact.operator, res.contact.Lambda
+    act = op.active(lam)
+    assert act.any()
+    assert np.all(np.abs(np.degrees(op.phi[act]) - 90) < 20) and np.all(np.abs(op.x[act]) < 0.05)
+
+
+def test_band_clamp():
+    """Interference fit: radial forces cancel (zero resultant), positive clamp force, the wall
+    under the band contracts by at least the interference, the same at every φ (axisymmetric),
+    and the band bears on both of its edges."""
+    res = solved("band_clamp")
+    c = contact(res)
+    N = c["total_normal_force"]
+    outer = 0.1 + 0.002 / 2
+    interference = outer - res.case.raw["punch"][0]["radius"]
+    assert N > 0 and c["force_magnitude"] <= 1e-9 * N
+    phis = np.linspace(0, 330, 12)
+    w0 = w_at(res, np.zeros_like(phis), phis)
+    assert np.all(w0 <= -interference * (1 - 1e-9))
+    assert np.ptp(w0) <= 1e-6 * interference
+    edge = w_at(res, [-0.015, 0.015], [90, 90])
+    assert np.allclose(edge, -interference, rtol=1e-8)
+    # the contraction dies out away from the band (bending length ~ sqrt(a t) = 14 mm)
+    assert abs(w_at(res, [0.15], [90])[0]) < 0.05 * interference
+    op, lam = res.contact.operator, res.contact.Lambda
+    act = op.active(lam)
+    assert np.any(act & np.isclose(op.x, -0.015)) and np.any(act & np.isclose(op.x, 0.015))
+    # mirror symmetry of the ring forces about x = 0
+    left = lam[np.isclose(op.x, -0.015)].sum()
+    right = lam[np.isclose(op.x, 0.015)].sum()
+    assert abs(left - right) <= 1e-6 * N
+
+
+def test_saddle_support_two_punches_force_control():
+    """Sphere driven by 5 kN: its force is exactly 5 kN down (force control); the saddle carries
+    part of it upward; both contact zones are where expected; left–right symmetry."""
+    res = solved("saddle_support")
+    s = res.summary()
+    top, saddle = s["contact"]
+    P = res.case.raw["punch"][0]["force"]
+    assert top["mode"] == "force" and top["force"][2] == pytest.approx(-P, rel=1e-8)
+    assert top["punch_travel"] > 0
+    assert 0 < saddle["force"][2] < P
+    assert abs(saddle["force"][1]) <= 1e-6 * saddle["force_magnitude"]
+    # the flanges take the rest (the balance itself: test_example_solves_in_equilibrium)
+    assert s["reaction_resultant"][2] > 0
+    op, lam = res.contact.operator, res.contact.Lambda
+    act = op.active(lam)
+    for k, phi0 in ((0, 90.0), (1, 270.0)):
+        rows = op.rows(k)
+        a = rows[act[rows]]
+        assert a.size > 0, f"punch {k} not in contact"
+        assert np.all(np.abs(np.degrees(op.phi[a]) - phi0) < 30)
+    x, p = np.array([0.05, 0.3]), np.array([60.0, 250.0])
+    assert np.allclose(w_at(res, x, p), w_at(res, x, 180 - p), rtol=1e-6, atol=1e-12)
+    assert np.allclose(w_at(res, x, p), w_at(res, -x, p), rtol=1e-6, atol=1e-12)
+
+
+def test_force_indentation_sweep_is_monotone(tmp_path):
+    """Sweep of the indentation: zero force at zero indentation, force and contact area grow."""
+    case = sc.load_case(EXAMPLES / "force_indentation_sweep.toml", sets=COARSE["force_indentation_sweep"])
+    values = [0.0, 1.0e-3, 2.5e-3, 5.0e-3]
+    sw = sc.sweep(case, "punch.0.indentation", values, tmp_path / "sweep", figures=False)
+    F = np.array([r["force"] for r in sw.rows], float)
+    area = np.array([r["area"] for r in sw.rows], float)
+    print("\nsweep:", list(zip(values, F, area)))
+    assert F[0] == 0.0
+    assert np.all(np.diff(F) > 0)
+    assert np.all(np.diff(area[1:]) >= 0)
+    assert (tmp_path / "sweep" / "sweep.csv").is_file()
+
+
+def test_paper_panel_symmetric_point():
+    """The paper's panel: the sphere's force points down, crown at −10 mm, symmetric in x and φ."""
+    res = solved("paper_panel")
+    c = contact(res)
+    assert c["force"][2] < 0
+    assert abs(c["force"][0]) < 1e-6 * c["force_magnitude"] and abs(c["force"][1]) < 1e-6 * c["force_magnitude"]
+    assert w_at(res, [0.0], [90.0])[0] <= -1e-2 * (1 - 1e-9)
+    x, p = np.array([0.1, 0.3]), np.array([85.0, 70.0])
+    assert np.allclose(w_at(res, x, p), w_at(res, -x, p), rtol=1e-6, atol=1e-12)
+    assert np.allclose(w_at(res, x, p), w_at(res, x, 180 - p), rtol=1e-6, atol=1e-12)
