@@ -58,8 +58,15 @@ def test_primal_and_dual_agree(name: str) -> None:
     fact = factorize(qp.A)
     p = solve_active_set(qp, factorization=fact)
     d = solve_dual(qp, factorization=fact)
+    p0 = solve_active_set(qp, factorization=fact, growth=0.0)  # plain PDAS
+    d0 = solve_dual(qp, factorization=fact, growth=0.0)  # MPRGP's full proportioning
+    for s in (p0, d0):
+        _assert_kkt(s)
+        assert _rel(s.U, p.U) <= 1e-8 and np.array_equal(s.active, p.active)
     print(f"\n{name}: n={qp.n} m={qp.m} active={int(p.active.sum())} iterations active-set={p.iterations} "
-          f"dual={d.iterations}; solves {p.timings['n_solves']:.0f}/{d.timings['n_solves']:.0f}")
+          f"(plain {p0.iterations}) dual={d.iterations} (θ=0: {d0.iterations}); Schur columns "
+          f"{p.timings['schur_columns']:.0f}/{p0.timings['schur_columns']:.0f}/{d.timings['schur_columns']:.0f}/"
+          f"{d0.timings['schur_columns']:.0f}")
     for sol in (p, d):
         _assert_kkt(sol)
         assert np.all(sol.Lambda >= 0)
@@ -164,14 +171,15 @@ def test_pdas_cycle_triggers_monotone_fallback() -> None:
     else:
         pytest.fail("no cycling example found")
     qp = ContactQP(sp.identity(m, format="csr"), F, sp.csr_matrix(B), G, np.ones(m))
-    sol = solve_active_set(qp)
+    sol = solve_active_set(qp, growth=0.0)  # plain PDAS update, as in the search
     assert sol.info["fallback"] == "dual-mprgp"
     assert any(rec.get("cycle") for rec in sol.history)
     with pytest.raises(SolverError, match="cycles"):
-        solve_active_set(qp, fallback=False)
+        solve_active_set(qp, growth=0.0, fallback=False)
     U_ref, lam_ref = _enumerate(qp)
-    assert _rel(sol.U, U_ref) <= 1e-10
-    assert np.abs(sol.Lambda - lam_ref).max() <= 1e-10 * max(np.abs(lam_ref).max(), 1.0)
+    for s in (sol, solve_active_set(qp), solve_dual(qp), solve_dual(qp, growth=0.0)):
+        assert _rel(s.U, U_ref) <= 1e-10
+        assert np.abs(s.Lambda - lam_ref).max() <= 1e-10 * max(np.abs(lam_ref).max(), 1.0)
 
 
 @pytest.mark.parametrize("name", ["plate-zone", "beam-edges"])

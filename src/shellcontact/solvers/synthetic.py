@@ -139,12 +139,19 @@ def _main() -> None:  # pragma: no cover - timing script
     ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128, 256])
     ap.add_argument("--problem", choices=["plate", "beam"], default="plate")
     ap.add_argument("--epsilon", type=float, default=1e-8)
+    ap.add_argument("--zone", type=float, default=0.35, help="plate: candidate radius")
+    ap.add_argument("--load", type=float, default=0.0, help="plate: uniform load toward the punch")
+    ap.add_argument("--indentation", type=float, default=0.002)
+    ap.add_argument("--radius", type=float, default=0.5)
     args = ap.parse_args()
     print(f"{'N':>5} {'n':>8} {'m':>6} {'solver':<22} {'iter':>5} {'active':>6} {'solves':>7} "
           f"{'time s':>8} {'ratio':>6}  worst residual")
     prev = None
     for N in args.sizes:
-        qp = plate_qp(N) if args.problem == "plate" else beam_qp(N)
+        if args.problem == "plate":
+            qp = plate_qp(N, radius=args.radius, indentation=args.indentation, zone=args.zone, load=args.load)
+        else:
+            qp = beam_qp(N)
         t = time.perf_counter()
         fact = factorize(qp.A)
         fact.solve(qp.F)
