@@ -175,6 +175,7 @@ def test_saddle_support_two_punches_force_control():
     P = res.case.raw["punch"][0]["force"]
     assert top["mode"] == "force" and top["force"][2] == pytest.approx(-P, rel=1e-8)
     assert top["punch_travel"] > 0
+    assert s["kkt"]["force_balance"] <= 1e-10
     assert 0 < saddle["force"][2] < P
     assert abs(saddle["force"][1]) <= 1e-6 * saddle["force_magnitude"]
     # the flanges take the rest (the balance itself: test_example_solves_in_equilibrium)

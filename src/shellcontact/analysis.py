@@ -226,6 +226,8 @@ class Result:
             cs = self.contact.solution
             out["contact"] = self.contact.summary()
             out["kkt"] = {k: float(cs.residuals.get(k, float("nan"))) for k in KKT_KEYS}
+            if "force_balance" in cs.residuals:  # force control (docs/solvers.md, KKT residuals)
+                out["kkt"]["force_balance"] = float(cs.residuals["force_balance"])
             out["solver"] = cs.method
             out["iterations"] = int(cs.iterations)
             if "penalty" in self.info:
