@@ -244,7 +244,7 @@ def test_force_control() -> None:
     s2 = solve_active_set(qp2)
     assert s2.delta[0] > 0
     assert abs(-(qp2.D[:, 0] @ s2.Lambda) - 2 * force) <= 1e-10 * force
-    pen = solve_penalty(qp2, epsilon=1e-10)
+    pen = solve_penalty(qp2, epsilon=1e-8)  # forward force balance ~1e-16·ω/ε·… : see penalty.py
     assert abs(-(qp2.D[:, 0] @ pen.Lambda) - 2 * force) <= 1e-8 * force
     assert abs(pen.delta[0] - s2.delta[0]) <= 1e-3 * abs(s2.delta[0])
     # random problem with force control: primal and dual agree
@@ -355,3 +355,31 @@ def test_contact_qp_validation() -> None:
         ContactQP(qp.A, qp.F, qp.B, qp.G, qp.weights, D=np.ones((qp.m, 1)))
     with pytest.raises(InputError):
         ContactQP(qp.A, qp.F, qp.B, qp.G, qp.weights, D=np.ones((qp.m + 1, 1)), P=[1.0])
+
+
+def test_no_contact_and_no_candidates() -> None:
+    """Far punch or no candidate vertex: Λ = 0 and U = A⁻¹F for every method."""
+    qp0 = random_qp()
+    U_free = np.linalg.solve(qp0.A.toarray(), qp0.F)
+    far = ContactQP(qp0.A, qp0.F, qp0.B, qp0.G + 100.0, qp0.weights)
+    none = ContactQP(qp0.A, qp0.F, sp.csr_matrix((0, qp0.n)), np.zeros(0), np.zeros(0))
+    for qp in (far, none):
+        for solver in (solve_active_set, solve_dual, lambda q: solve_penalty(q, epsilon=1e-6)):
+            s = solver(qp)
+            assert not s.active.any() and np.all(s.Lambda == 0)
+            assert _rel(s.U, U_free) <= 1e-12
+
+
+def test_two_force_controlled_punches() -> None:
+    qp0 = random_qp()
+    D = np.zeros((qp0.m, 2))
+    D[:5, 0] = -1.0
+    D[5:, 1] = -1.0
+    qp = ContactQP(qp0.A, qp0.F, qp0.B, qp0.G, qp0.weights, D=D, P=[1.0, 2.0])
+    a, d = solve_active_set(qp), solve_dual(qp)
+    for s in (a, d):
+        _assert_kkt(s)
+        np.testing.assert_allclose(-D.T @ s.Lambda, [1.0, 2.0], rtol=1e-12)
+    assert _rel(a.U, d.U) <= 1e-8 and np.allclose(a.delta, d.delta, rtol=1e-8)
+    p = solve_penalty(qp, epsilon=1e-9)
+    np.testing.assert_allclose(p.delta, a.delta, rtol=1e-6)

@@ -22,6 +22,17 @@ carry force ever cost a solve. Errors: ``InputError`` (bad arguments, ε ≤ 0),
 ``InfeasibleProblemError`` (a ``SolverError``: empty admissible set, lists the constraints),
 ``SolverError`` (no convergence; carries ``residuals`` and ``iterations``).
 
+Stopping: every residual of ``kkt.kkt_residuals`` scaled as documented in ``kkt`` must be
+≤ tol; stationarity is tested as a normwise backward error ‖r‖/‖|A||U| + |F| + |Bᵀ|Λ‖ because
+the forward form ‖r‖/‖F + BᵀΛ‖ reported in ``residuals`` has a round-off floor ε_mach·cond
+(~1e-9 on fourth-order shells at 10⁵ dofs). The penalty method reports the exact-problem
+residuals (penetration and complementarity O(ε)) and stops on the backward error of the
+penalised equation.
+
+Options beyond the common API: ``initial_U`` (active set, penalty), ``initial_lambda`` /
+``initial_active`` (dual), ``growth`` (active set, dual: restricted growth of the working set),
+``fallback`` (active set), ``hessian="schur"|"refactorize"`` (penalty).
+
 Modules: qp (data, feasibility check), kkt (residuals, duality gap), schur (factorisation and
 S columns), penalty, active_set (PDAS + fallback), dual (MPRGP with exact face solves,
 SMALBE for force control), synthetic (test problems; ``python -m shellcontact.solvers.synthetic``

@@ -6,9 +6,14 @@ Each iteration, for the working set I, solves the equality-constrained QP
 through its Schur complement S_II Λ_I (+ D_I δ) = −c0_I on the active rows only
 (``schur.Workspace``: columns of S = B A⁻¹ Bᵀ by blocked solves, cached across iterations,
 so a repeated or nested start costs no new solves). The semismooth Newton update of the
-working set is I ← {i ∈ I : Λ_i > 0} ∪ {j ∉ I : g_j < 0} (independent of c > 0 once g_I = 0).
+working set is I ← {i ∈ I : Λ_i > 0} ∪ {j ∉ I : g_j < 0} (independent of c > 0 once g_I = 0);
+by default (``growth`` θ = 0.9) only the violated constraints with g_j ≤ θ·min g are added, so
+that the working set grows from the deepest penetration outwards and columns of S are computed
+only near the final contact set (4-30x fewer on the synthetic plates; more, cheaper iterations).
+For fourth-order problems the working set otherwise starts as the whole initially penetrating
+zone and is pruned by about one node layer per iteration.
 
-Globalisation (guaranteed convergence): the update is a deterministic map I ↦ T(I) on the
+Globalisation (guaranteed convergence): the update (with or without θ) is a deterministic map I ↦ T(I) on the
 finite family of subsets, so the iteration either reaches a fixed point — which is an exact
 KKT point (Λ_I ≥ 0, g_J ≥ 0, g_I = 0, Λ_J = 0) — or revisits a set. Every visited set is
 recorded; at the first revisit (a cycle: possible because S is not an M-matrix for

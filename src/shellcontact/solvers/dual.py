@@ -259,4 +259,5 @@ def solve_dual(
     if not (0.0 <= growth < 1.0):
         raise InputError("solver.growth", f"must lie in [0, 1), got {growth!r}")
     lam, delta, its = dual_core(ws, lam0, tol, max_iterations, history, gamma, rho, growth=growth)
-    return ws.finish_exact(lam, delta, tol, "dual", its, history)
+    faces = int(sum(r.get("face_solves", 0) for r in history))
+    return ws.finish_exact(lam, delta, tol, "dual", its, history, info={"face_solves": faces})

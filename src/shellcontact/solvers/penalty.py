@@ -222,15 +222,19 @@ def _penalty_refactorize(qp: ContactQP, seq: list[float], tol: float, max_iterat
             return 0.5 * float(U @ (A @ U)) - float(F @ U) + 0.5 / eps * pen
 
         ok = False
+        prev_I, s = None, 0.0
         for it in range(1, max_iterations + 1):
             g = G + B @ U
             lam = w / eps * np.maximum(-g, 0.0) * live
             r = A @ U - F - B.T @ lam
-            stat = float(np.linalg.norm(r) / max(np.linalg.norm(F + B.T @ lam), TINY))
-            if it > 1 and stat <= tol:
+            I = live & (g < 0)
+            pen_mag = w / eps * I * (np.abs(G) + abs(B) @ np.abs(U))
+            mag = abs(A) @ np.abs(U) + np.abs(F) + abs(B).T @ (lam + pen_mag)
+            stat = float(np.linalg.norm(r) / max(np.linalg.norm(mag), TINY))  # backward error
+            if it > 1 and (stat <= tol or (s == 1.0 and np.array_equal(I, prev_I))):
                 ok = True
                 break
-            I = live & (g < 0)
+            prev_I = I
             Wd = sp.diags(np.where(I, w / eps, 0.0))
             H = (A + B.T @ Wd @ B).tocsr()
             t = time.perf_counter()

@@ -170,7 +170,11 @@ def _main() -> None:  # pragma: no cover - timing script
             runs.append(("active-set nested", lambda q=qp, i=init: solve_active_set(q, initial_active=i)))
         for name, run in runs:
             t = time.perf_counter()
-            sol = run()
+            try:
+                sol = run()
+            except Exception as exc:  # noqa: BLE001 — report and go on
+                print(f"{N:5d} {qp.n:8d} {qp.m:6d} {name:<22} failed: {str(exc)[:80]}")
+                continue
             el = time.perf_counter() - t
             worst = max(sol.info["scaled_residuals"], key=sol.info["scaled_residuals"].get)
             print(f"{N:5d} {qp.n:8d} {qp.m:6d} {name:<22} {sol.iterations:5d} {int(sol.active.sum()):6d} "
