@@ -193,7 +193,10 @@ def test_saddle_support_two_punches_force_control():
 
 
 def test_force_indentation_sweep_is_monotone(tmp_path):
-    """Sweep of the indentation: zero force at zero indentation, force and contact area grow."""
+    """Sweep of the indentation: zero force at zero indentation, force and contact area grow.
+
+    Monotone force is a theorem here: the energy E(d) = min {½UᵀAU : BU ≥ −G₀ + d c} is the value
+    function of a convex QP whose right-hand side is affine in d, hence convex, and F = E'(d)."""
     case = sc.load_case(EXAMPLES / "force_indentation_sweep.toml", sets=COARSE["force_indentation_sweep"])
     values = [0.0, 1.0e-3, 2.5e-3, 5.0e-3]
     sw = sc.sweep(case, "punch.0.indentation", values, tmp_path / "sweep", figures=False)
