@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import brentq
 from skfem import MeshTri
 
 from .errors import InputError
@@ -46,17 +47,31 @@ def graded_nodes(
         t = np.linspace(0.0, 1.0, k + 1)
         near_lo = any(abs(lo - f) < 1e-12 * max(1.0, abs(length)) for f in focus)
         near_hi = any(abs(hi - f) < 1e-12 * max(1.0, abs(length)) for f in focus)
-        if ratio > 1.0 and (near_lo or near_hi):
-            p = np.log(ratio) / np.log(max(k, 2)) + 1.0  # power law: last/first interval ≈ ratio
-            if near_lo and near_hi:
-                r = 2.0 * t - 1.0
-                t = 0.5 * (1.0 + np.sign(r) * (1.0 - (1.0 - np.abs(r)) ** p))
-            elif near_lo:
-                t = t**p
-            else:
-                t = 1.0 - (1.0 - t) ** p
+        if ratio > 1.0 and (near_lo or near_hi) and k >= 2:
+            t = _graded_unit(k, ratio, near_lo, near_hi)
         nodes.append(lo + (hi - lo) * t[1:])
     return np.concatenate(nodes)
+
+
+def _graded_unit(k: int, ratio: float, at_lo: bool, at_hi: bool) -> np.ndarray:
+    """k intervals on [0, 1], power-law graded toward the flagged ends, largest/smallest = ratio."""
+    t = np.linspace(0.0, 1.0, k + 1)
+
+    def nodes(p: float) -> np.ndarray:
+        if at_lo and at_hi:
+            r = 2.0 * t - 1.0
+            return 0.5 * (1.0 + np.sign(r) * (1.0 - (1.0 - np.abs(r)) ** p))
+        return t**p if at_lo else 1.0 - (1.0 - t) ** p
+
+    def excess(p: float) -> float:
+        h = np.diff(nodes(p))
+        return float(np.log(h.max() / h.min()) - np.log(ratio))
+
+    hi = 2.0
+    while excess(hi) < 0.0 and hi < 64.0:
+        hi *= 2.0
+    p = brentq(excess, 1.0, hi, xtol=1e-12) if excess(hi) > 0.0 else hi
+    return nodes(p)
 
 
 def _split(nx: int, ny: int, pattern: str) -> tuple[np.ndarray, np.ndarray]:
