@@ -9,7 +9,8 @@ so a repeated or nested start costs no new solves). The semismooth Newton update
 working set is I ← {i ∈ I : Λ_i > 0} ∪ {j ∉ I : g_j < 0} (independent of c > 0 once g_I = 0);
 by default (``growth`` θ = 0.9) only the violated constraints with g_j ≤ θ·min g are added, so
 that the working set grows from the deepest penetration outwards and columns of S are computed
-only near the final contact set (4-30x fewer on the synthetic plates; more, cheaper iterations).
+only near the final contact set (3-30x fewer on the synthetic plates, 102 -> 35 fine-level solves
+for a nested start on the sphere panel; more, but cheap, iterations).
 For fourth-order problems the working set otherwise starts as the whole initially penetrating
 zone and is pruned by about one node layer per iteration.
 

@@ -242,7 +242,8 @@ def solve_dual(
     growth: float = 0.9,
 ) -> ContactSolution:
     """Dual method (module docstring). Warm start from Λ (``initial_lambda``) or from an
-    active set (``initial_active``: the face solve on it, clipped at 0)."""
+    active set (``initial_active``: the face solve on it, clipped at 0). ``growth`` θ = 0 gives
+    MPRGP's full proportioning."""
     from .active_set import _as_mask, _check_common
 
     _check_common(tol, max_iterations)
