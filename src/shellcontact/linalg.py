@@ -130,8 +130,12 @@ class _Pardiso:
         ip[34] = 1  # zero-based indices
         self.n = A.shape[0]
         self._set_matrix(A)
-        self._call(11)  # ordering and symbolic factorisation
-        self._call(22)  # numeric factorisation
+        try:
+            self._call(11)  # ordering and symbolic factorisation
+            self._call(22)  # numeric factorisation
+        except SolverError:
+            self.free()  # release MKL's internal memory before giving up
+            raise
 
     def _set_matrix(self, A: sp.csr_matrix) -> None:
         U = sp.triu(A, format="csr")
@@ -180,9 +184,8 @@ class _Pardiso:
     def refactor(self, A: sp.csr_matrix) -> None:
         U = sp.triu(A, format="csr")
         U.sort_indices()
-        if U.nnz != self.data.size or not np.array_equal(U.indices, self.ja):
+        if U.nnz != self.data.size or not np.array_equal(U.indptr, self.ia) or not np.array_equal(U.indices, self.ja):
             self.free()
-            self.pt[:] = 0
             self._set_matrix(A)
             self._call(11)
         else:
@@ -210,15 +213,25 @@ class _Cholmod:
     def __init__(self, A: sp.csr_matrix) -> None:
         from sksparse.cholmod import CholmodError, cholesky
 
-        self._error = CholmodError
+        self._error, self._cholesky = CholmodError, cholesky
+        M = sp.csc_matrix(A)
+        M.sort_indices()
+        self._pattern = (M.indptr.copy(), M.indices.copy())
         try:
-            self.factor = cholesky(sp.csc_matrix(A))
+            self.factor = cholesky(M)
         except CholmodError as exc:
             raise SolverError(f"CHOLMOD: {exc} (not positive definite)") from None
 
     def refactor(self, A: sp.csr_matrix) -> None:
+        M = sp.csc_matrix(A)
+        M.sort_indices()
+        same = np.array_equal(M.indptr, self._pattern[0]) and np.array_equal(M.indices, self._pattern[1])
         try:
-            self.factor.cholesky_inplace(sp.csc_matrix(A))
+            if same:  # the symbolic analysis (ordering, supernodes) is reused
+                self.factor.cholesky_inplace(M)
+            else:
+                self.factor = self._cholesky(M)
+                self._pattern = (M.indptr.copy(), M.indices.copy())
         except self._error as exc:
             raise SolverError(f"CHOLMOD: {exc} (not positive definite)") from None
 
