@@ -145,6 +145,27 @@ def test_argyris_transformation_matches_vandermonde():
         np.testing.assert_allclose(fast.h, direct.h)
 
 
+def test_reference_evaluation_matches_monomial_evaluation():
+    """ArgyrisBasis.evaluate_reference (reference basis + transformation) = evaluate (scaled monomials)."""
+    space = ShellSpace(perturbed(panel(x_start=50.0), 5, 4))
+    arg = space.argyris
+    e = np.arange(space.mesh.nelements)
+    X, _ = space.quadrature(8)
+    Xe = np.random.default_rng(4).uniform(0.0, 0.5, (2, e.size, 3))  # different points in every element
+    for pts in (X, Xe):
+        x, s = (space.reference_to_physical(e, pts)[:2] if pts.ndim == 2 else
+                _physical(space, e, pts))
+        direct, ref = arg.evaluate(e, x, s), arg.evaluate_reference(e, pts)
+        for k, v in direct.items():
+            assert np.abs(ref[k] - v).max() <= 1e-12 * np.abs(v).max(), k
+
+
+def _physical(space, e, Xe):
+    p, t = space.mesh.p, space.mesh.t[:, e]
+    p0, d1, d2 = p[:, t[0]], p[:, t[1]] - p[:, t[0]], p[:, t[2]] - p[:, t[0]]
+    return tuple(p0[i][:, None] + d1[i][:, None] * Xe[0] + d2[i][:, None] * Xe[1] for i in range(2))
+
+
 # -- against scikit-fem -----------------------------------------------------------------------
 
 

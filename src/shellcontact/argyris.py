@@ -74,6 +74,8 @@ class ArgyrisBasis:
     centre: np.ndarray  # (nel, 2)
     h: np.ndarray  # (nel,)
     coef: np.ndarray  # (nel, 21 monomials, 21 basis functions), for the *physical* dofs
+    verts: np.ndarray | None = None  # (nel, 3, 2), for evaluate_reference
+    normals: np.ndarray | None = None  # (nel, 3, 2) edge normals of the edge dofs
 
     @classmethod
     def build(cls, p: np.ndarray, t: np.ndarray, normals: np.ndarray) -> ArgyrisBasis:
@@ -96,7 +98,7 @@ class ArgyrisBasis:
         for start in range(0, t.shape[1], 2048):  # chunks that stay in cache
             sl = slice(start, min(start + 2048, t.shape[1]))
             coef[sl] = _transformed_coefficients(verts[sl], centre[sl], h[sl], normals[sl])
-        return cls(centre=centre, h=h, coef=coef)
+        return cls(centre=centre, h=h, coef=coef, verts=verts, normals=np.asarray(normals))
 
     @classmethod
     def build_vandermonde(cls, p: np.ndarray, t: np.ndarray, normals: np.ndarray) -> ArgyrisBasis:
@@ -119,7 +121,7 @@ class ArgyrisBasis:
         coef_scaled = np.linalg.inv(V)  # basis for the h-scaled dofs
         # physical dof of order r is (scaled dof)/h^r, so its basis function is h^r × scaled one
         coef = coef_scaled * h[:, None, None] ** DOF_ORDER[None, None, :]
-        return cls(centre=centre, h=h, coef=coef)
+        return cls(centre=centre, h=h, coef=coef, verts=verts, normals=np.asarray(normals))
 
     def evaluate(self, elements: np.ndarray, x: np.ndarray, y: np.ndarray, order: int = 2) -> dict[str, np.ndarray]:
         """Basis functions and derivatives at physical points (x, y) of shape (n, nq).
@@ -138,6 +140,36 @@ class ArgyrisBasis:
             m = monomials(xi, eta, dx, dy)  # (n, nq, 21)
             val = np.einsum("nqm,nmb->bnq", m, C, optimize=True)
             out[name] = val / h[None, :, None] ** (dx + dy)
+        return out
+
+    def evaluate_reference(self, elements: np.ndarray, X: np.ndarray, order: int = 2) -> dict[str, np.ndarray]:
+        """Same as ``evaluate`` at the images of reference points X: (2, nq) shared or (2, n, nq).
+
+        Uses the reference basis and the explicit transformation (no monomials per element):
+        φ = V⁻ᵀ ψ̂, ∇φ = Kᵀ ∇̂φ, and the Hessian transformed by K = J⁻¹.
+        """
+        elements = np.asarray(elements, dtype=int)
+        verts = self.verts[elements]
+        Vt = dof_transformation(verts, self.normals[elements]).transpose(0, 2, 1)  # (n, 21 φ, 21 ψ̂)
+        _, K, _ = affine_maps(verts)
+        needed = [(0, 0)] + ([(1, 0), (0, 1)] if order >= 1 else []) + ([(2, 0), (1, 1), (0, 2)] if order >= 2 else [])
+        ref = {}
+        for d in needed:
+            if X.ndim == 2:
+                tab = (monomials(X[0], X[1], *d) @ _REF_A).T  # (21, nq)
+                ref[d] = np.matmul(Vt, tab).transpose(1, 0, 2)  # (21, n, nq)
+            else:
+                tab = (monomials(X[0], X[1], *d) @ _REF_A).transpose(0, 2, 1)  # (n, 21, nq)
+                ref[d] = np.matmul(Vt, tab).transpose(1, 0, 2)
+        k = [[K[:, a, i][None, :, None] for i in range(2)] for a in range(2)]  # K[a][i] = ∂x̂_a/∂x_i
+        out = {"w": ref[(0, 0)]}
+        if order >= 1:
+            out["w_x"] = k[0][0] * ref[(1, 0)] + k[1][0] * ref[(0, 1)]
+            out["w_y"] = k[0][1] * ref[(1, 0)] + k[1][1] * ref[(0, 1)]
+        if order >= 2:
+            for name, (i, j) in (("w_xx", (0, 0)), ("w_xy", (0, 1)), ("w_yy", (1, 1))):
+                out[name] = (k[0][i] * k[0][j] * ref[(2, 0)] + (k[0][i] * k[1][j] + k[1][i] * k[0][j]) * ref[(1, 1)]
+                             + k[1][i] * k[1][j] * ref[(0, 2)])
         return out
 
 

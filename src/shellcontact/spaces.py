@@ -107,6 +107,7 @@ class ShellSpace:
         """
         elements = np.asarray(elements, dtype=int)
         n = elements.size
+        X_given = X
         X = np.broadcast_to(X[:, None, :], (2, n, X.shape[-1])) if X.ndim == 2 else X
         nq = X.shape[-1]
         p, t = self.mesh.p, self.mesh.t[:, elements]
@@ -124,25 +125,24 @@ class ShellSpace:
             val[i] = phi
             for a in range(2):
                 grad[a, i] = ix[a, 0][:, None] * dphi[0] + ix[a, 1][:, None] * dphi[1]
-        x = p[0, t[0]][:, None] + d1[0][:, None] * X[0] + d2[0][:, None] * X[1]
-        s = p[1, t[0]][:, None] + d1[1][:, None] * X[0] + d2[1][:, None] * X[1]
-        wb = self.argyris.evaluate(elements, x, s, order=2)
-        zeros6 = np.zeros((6, n, nq))
-        zeros21 = np.zeros((21, n, nq))
+        # reference basis + explicit transformation (argyris.evaluate_reference): no monomials per element
+        wb = self.argyris.evaluate_reference(elements, X_given, order=2)
 
-        def stack(u, v, w):
-            return np.concatenate([u, v, w], axis=0)
+        def block(rows: slice, values: np.ndarray) -> np.ndarray:
+            out = np.zeros((33, n, nq))  # zero pages are mapped lazily: only the field's rows are written
+            out[rows] = values
+            return out
 
         out = {
-            "u": stack(val, zeros6, zeros21),
-            "u_x": stack(grad[0], zeros6, zeros21),
-            "u_s": stack(grad[1], zeros6, zeros21),
-            "v": stack(zeros6, val, zeros21),
-            "v_x": stack(zeros6, grad[0], zeros21),
-            "v_s": stack(zeros6, grad[1], zeros21),
+            "u": block(slice(0, 6), val),
+            "u_x": block(slice(0, 6), grad[0]),
+            "u_s": block(slice(0, 6), grad[1]),
+            "v": block(slice(6, 12), val),
+            "v_x": block(slice(6, 12), grad[0]),
+            "v_s": block(slice(6, 12), grad[1]),
         }
         for k in ("w", "w_x", "w_s", "w_xx", "w_xs", "w_ss"):
-            out[k] = stack(zeros6, zeros6, wb[k.replace("s", "y")])
+            out[k] = block(slice(12, 33), wb[k.replace("s", "y")])
         return out
 
     # -- point evaluation ------------------------------------------------------------------
