@@ -177,6 +177,8 @@ def dual_core(
     if not np.any(lam > 0):
         seed = ws.first_contact(np.zeros(qp.m, dtype=bool), ws.c0)
         ws.ensure(np.flatnonzero(seed))
+    else:
+        ws.ensure(np.flatnonzero(lam > 0))
     if rho is None:
         diag = ws.known_diagonal()
         rho = 10.0 * float(diag.max()) if diag.size else 1.0
