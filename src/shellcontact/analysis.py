@@ -129,6 +129,7 @@ class ContactResult:
     gap: np.ndarray  # G + B U (+ D δ)
     delta: np.ndarray | None  # force-control travel
     outside: np.ndarray  # per punch: largest penetration at vertices outside its candidate zone
+    between: np.ndarray  # per punch: largest penetration at edge midpoints between constraint points
 
     @property
     def pressure(self) -> np.ndarray:
@@ -136,17 +137,24 @@ class ContactResult:
 
     def summary(self) -> list[dict]:
         out = self.operator.summary(self.Lambda, self.active, self.delta)
-        for entry, pen in zip(out, self.outside):
+        for entry, pen, mid in zip(out, self.outside, self.between):
             entry["penetration_outside_zone"] = float(pen)
+            entry["penetration_between_points"] = float(mid)
         return out
 
     def warnings(self) -> list[str]:
         """Contact beyond a candidate zone: the zone was too small and must be widened."""
-        tol = 1e-8 * max(float(np.max(np.abs(self.operator.G), initial=0.0)), 1e-300)
-        return [
+        scale = max(float(np.max(np.abs(self.operator.G), initial=0.0)), 1e-300)
+        out = [
             f"punch.{k}: the shell penetrates the punch by {pen:.3e} outside its candidate zone; "
-            f"widen punch.{k}.zone" for k, pen in enumerate(self.outside) if pen > tol
+            f"widen punch.{k}.zone" for k, pen in enumerate(self.outside) if pen > 1e-8 * scale
         ]
+        out += [
+            f"punch.{k}: the shell penetrates the punch by {pen:.3e} between the constraint points "
+            f"({pen / scale:.1%} of the overlap); set solver.contact_points = 'vertices+midpoints' or refine"
+            for k, pen in enumerate(self.between) if pen > 1e-2 * scale
+        ]
+        return out
 
 
 @dataclass
@@ -238,14 +246,16 @@ class Result:
         return out
 
 
-def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndarray | None, eps: float):
+def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndarray | None,
+                   initial_active: np.ndarray | None, eps: float):
     kw: dict[str, Any] = {"tol": opts.tolerance, "factorization": fac}
     if opts.max_iterations is not None:
         kw["max_iterations"] = opts.max_iterations
     if opts.method == "penalty":
         return solve_penalty(qp, epsilon=eps, continuation=list(opts.continuation) or None,
                              initial_U=initial_U_r, **kw)
-    initial_active = None if initial_U_r is None else qp.gap(initial_U_r) <= 0.0
+    if initial_active is None and initial_U_r is not None:
+        initial_active = qp.gap(initial_U_r) <= 0.0
     if opts.method == "dual":
         return solve_dual(qp, initial_active=initial_active, **kw)
     return solve_active_set(qp, initial_active=initial_active, **kw)
@@ -285,10 +295,12 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
         with timer.stage("nested"):
             start = solve(coarse, method=opts.method, backend=opts.backend)
         info["nested_iterations"] = [start.info.get("nested_iterations", []), start.contact.solution.iterations]
-    initial_U_r = None
+    initial_U_r = initial_active = None
     if start is not None:
         U0 = start.solution.prolongate(space)
         initial_U_r = U0[red.free]
+        if _same_rows(start, op):  # e.g. the previous step of a sweep: its active set is the best guess
+            initial_active = start.contact.active
     with timer.stage("assembly"):
         qp = ContactQP(Ar, Fr, op.B @ red.P, op.G, op.weights,
                        D=op.D, P=op.forces if op.D is not None else None,
@@ -297,16 +309,39 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     if opts.method == "penalty":
         info["penalty"] = eps
     with timer.stage("solve"):
-        cs = _solve_contact(qp, opts, fac, initial_U_r, eps)
+        cs = _solve_contact(qp, opts, fac, initial_U_r, initial_active, eps)
     U = red.expand(cs.U)
     timings = timer.total()
     info["solver_timings"] = dict(cs.timings)
     Lam = np.asarray(cs.Lambda, float)
     contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
                             gap=op.gap(U, cs.delta), delta=cs.delta,
-                            outside=penetration_outside(space, punches, U, cs.delta))
+                            outside=penetration_outside(space, punches, U, cs.delta),
+                            between=_penetration_between(space, punches, opts.contact_points, U, cs.delta))
     sol = ShellSolution(space=space, U=U, A=A, F=F, timings=timings, extra_forces=op.B.T @ Lam)
     return Result(case=case, solution=sol, timings=timings, info=info, contact=contact, punches=punches)
+
+
+def _penetration_between(space: ShellSpace, punches: list[Punch], points: str, U: np.ndarray,
+                         delta: np.ndarray | None) -> np.ndarray:
+    """Largest [Π]₋ per punch at the zone's edge midpoints (zero when they are constrained too).
+
+    Constraints at vertices only (the paper's K_h, MODEL.md §7) let the shell bend into the punch
+    between them; on a ring contact around a coarse circumference this can be most of the overlap.
+    """
+    if points != "vertices":
+        return np.zeros(len(punches))
+    op = contact_operator(space, punches, "vertices+midpoints")
+    gap = op.gap(U, delta)
+    mid = op.facet >= 0
+    return np.array([float(np.max(-gap[mid & (op.punch == k)], initial=0.0)) for k in range(len(punches))]).clip(0)
+
+
+def _same_rows(start: Result, op: ContactOperator) -> bool:
+    """Whether an earlier result has the same constraint points (same mesh and zones)."""
+    prev = start.contact.operator if start.contact is not None else None
+    return (prev is not None and prev.m == op.m and np.array_equal(prev.punch, op.punch)
+            and np.allclose(prev.x, op.x) and np.allclose(prev.phi, op.phi))
 
 
 def _row_labels(op: ContactOperator) -> list[str]:
