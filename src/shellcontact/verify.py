@@ -53,6 +53,18 @@ class Check:
 # --------------------------------------------------------------------------------------------
 # the small cases
 # --------------------------------------------------------------------------------------------
+def _panel_dict(punch: dict, nphi: int, refine: int) -> dict:
+    """A 1 m steel panel (60° sector, t = 10 mm) clamped along its straight edges, free at its ends."""
+    return {
+        "shell": {"radius": 1.0, "length": 1.0, "angle": [60.0, 120.0], "thickness": 0.01,
+                  "young": 2.1e11, "poisson": 0.3},
+        "supports": {"x_min": "free", "x_max": "free", "phi_min": "clamped", "phi_max": "clamped"},
+        "mesh": {"nx": 4, "nphi": nphi, "refine": refine, "grading": {"phi": [90.0], "ratio": 4.0}},
+        "punch": [punch],
+        "solver": {"tolerance": 1e-10},
+    }
+
+
 def roller_case(refine: int = 0, indentation: float = 2e-3, force: float | None = None, solver=None, loads=None):
     """The roller case (module docstring) as a Case; ``force`` switches to force control."""
     from .case import case_from_dict
@@ -69,20 +81,8 @@ def roller_case(refine: int = 0, indentation: float = 2e-3, force: float | None 
         punch["indentation"] = indentation
     else:
         punch["force"] = force
-    d = {
-        "shell": {
-            "radius": 1.0,
-            "length": 1.0,
-            "angle": [60.0, 120.0],
-            "thickness": 0.01,
-            "young": 2.1e11,
-            "poisson": 0.3,
-        },
-        "supports": {"x_min": "free", "x_max": "free", "phi_min": "clamped", "phi_max": "clamped"},
-        "mesh": {"nx": 4, "nphi": 6, "refine": refine, "grading": {"phi": [90.0], "ratio": 4.0}},
-        "punch": [punch],
-        "solver": {"tolerance": 1e-10, **(solver or {})},
-    }
+    d = _panel_dict(punch, nphi=6, refine=refine)
+    d["solver"].update(solver or {})
     if loads:
         d["loads"] = loads
     return case_from_dict(d)
@@ -340,29 +340,14 @@ def check_concentration(runs: _Runs) -> list[Check]:
     from .analysis import solve
     from .case import case_from_dict
 
-    d = {
-        "shell": {
-            "radius": 1.0,
-            "length": 1.0,
-            "angle": [60.0, 120.0],
-            "thickness": 0.01,
-            "young": 2.1e11,
-            "poisson": 0.3,
-        },
-        "supports": {"x_min": "free", "x_max": "free", "phi_min": "clamped", "phi_max": "clamped"},
-        "mesh": {"nx": 4, "nphi": 8, "refine": 2, "grading": {"phi": [90.0], "ratio": 4.0}},
-        "punch": [
-            {
-                "shape": "plane",
-                "center": [0.0, 0.0, 1.1],
-                "normal": [0.0, 0.0, -1.0],
-                "indentation": 1e-2,
-                "zone": {"x": [-0.5, 0.5], "phi": [75.0, 105.0]},
-            }
-        ],
-        "solver": {"tolerance": 1e-10},
+    flat = {
+        "shape": "plane",
+        "center": [0.0, 0.0, 1.1],
+        "normal": [0.0, 0.0, -1.0],
+        "indentation": 1e-2,
+        "zone": {"x": [-0.5, 0.5], "phi": [75.0, 105.0]},
     }
-    res = solve(case_from_dict(d))
+    res = solve(case_from_dict(_panel_dict(flat, nphi=8, refine=2)))
     op, Lam, g = res.contact.operator, res.contact.Lambda, res.contact.gap
     closed = g <= 1e-9 * float(np.abs(op.G).max())
     dphi = np.abs(op.phi - math.pi / 2)
