@@ -106,6 +106,7 @@ def delaunay(shell: Shell, n: int = 7, seed: int = 1) -> ShellMesh:
 MESHES = {
     "structured": lambda sh: structured(sh, 5, 4),
     "right": lambda sh: structured(sh, 4, 3, "right"),
+    "crossed": lambda sh: structured(sh, 3, 3, "crossed"),
     "perturbed": lambda sh: perturbed(sh, 5, 4),
     "delaunay": lambda sh: delaunay(sh),
 }
