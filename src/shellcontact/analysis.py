@@ -236,6 +236,9 @@ class Result:
             out["kkt"] = {k: float(cs.residuals.get(k, float("nan"))) for k in KKT_KEYS}
             if "force_balance" in cs.residuals:  # force control (docs/solvers.md, KKT residuals)
                 out["kkt"]["force_balance"] = float(cs.residuals["force_balance"])
+            # the scaled residuals are what the solver compares with [solver] tolerance
+            out["kkt_scaled"] = {k: float(v) for k, v in cs.info.get("scaled_residuals", {}).items()}
+            out["tolerance"] = self.info.get("tolerance")
             out["solver"] = cs.method
             out["iterations"] = int(cs.iterations)
             if "penalty" in self.info:
@@ -306,6 +309,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
                        D=op.D, P=op.forces if op.D is not None else None,
                        row_labels=_row_labels(op))
     eps = opts.penalty if opts.penalty is not None else default_penalty(case)
+    info["tolerance"] = opts.tolerance
     if opts.method == "penalty":
         info["penalty"] = eps
     with timer.stage("solve"):
