@@ -144,6 +144,9 @@ class Reduction:
         return cls(P=P, fixed=fixed, free=free)
 
     def reduce_matrix(self, A: sp.spmatrix) -> sp.csr_matrix:
+        """Pᵀ A P; without periodic slaves P only selects the free dofs, so slice instead."""
+        if self.P.nnz == self.free.size:
+            return sp.csr_matrix(A)[self.free][:, self.free]
         return (self.P.T @ A @ self.P).tocsr()
 
     def reduce_vector(self, F: np.ndarray) -> np.ndarray:
