@@ -119,9 +119,14 @@ def test_sweep_resumes_after_lost_step_and_parallel_agrees(tmp_path: Path) -> No
     t = (tmp_path / "full" / "steps" / "step-0000.json").stat().st_mtime_ns
     cli(*SWEEP, "-o", "full", cwd=tmp_path)
     assert (tmp_path / "full" / "steps" / "step-0000.json").stat().st_mtime_ns == t
-    # parallel processes give the same CSV
+    # parallel worker processes give the same CSV up to round-off (a threaded factorisation need
+    # not add in the same order in every process; one such 1e-11 difference was seen)
     cli(*SWEEP, "-o", "par", "--jobs", "2", cwd=tmp_path)
-    assert _csv(tmp_path / "par" / "sweep.csv") == reference
+    par = [ln.split(",") for ln in _csv(tmp_path / "par" / "sweep.csv").splitlines()]
+    ref = [ln.split(",") for ln in reference.splitlines()]
+    assert par[0] == ref[0] and len(par) == len(ref)
+    for a, b in zip(par[1:], ref[1:]):
+        assert [float(v) for v in a if v] == pytest.approx([float(v) for v in b if v], rel=1e-9, abs=1e-300)
 
 
 def test_sweep_killed_then_resumed(tmp_path: Path) -> None:
