@@ -143,3 +143,45 @@ def table(headers: list[str], rows: list[list]) -> str:
 
 def target(value, goal, unit, peer, **extra) -> dict:
     return {"value": value, "goal": goal, "unit": unit, "peer": peer, **extra}
+
+
+# --- the discrete contact QP of a case, as shellcontact.analysis.solve builds it ---------------------------------
+
+
+def export_qp_parts(case, contact_points: str | None = None):
+    """(qp, operator, reduction, space) of ``case``: the reduced QP exactly as ``analysis.solve`` builds it.
+
+    Same steps and arguments as ``shellcontact.analysis.solve`` (punches_from_case → fitted_mesh →
+    ShellSpace → model.stiffness, load_vector → Reduction.build → contact_operator →
+    ContactQP(Ar, Fr, B P, G, weights, D, P)); ``contact_points`` defaults to the case's
+    ``[solver] contact_points``. The operator gives the punch force of a multiplier vector
+    (``operator.total_normal_force(Lambda)``); ``reduction.expand`` maps U_r to the full U.
+    """
+    from shellcontact import model
+    from shellcontact.analysis import SolverOptions, _row_labels
+    from shellcontact.contact import contact_operator
+    from shellcontact.errors import InputError
+    from shellcontact.loads import load_vector
+    from shellcontact.punch import fitted_mesh, punches_from_case
+    from shellcontact.solvers import ContactQP
+    from shellcontact.spaces import ShellSpace
+    from shellcontact.supports import Reduction
+
+    opts = SolverOptions.from_case(case)
+    punches = punches_from_case(case.punches, case.shell)
+    if not punches:
+        raise InputError("punch", "the case has no punch: there is no contact QP to export")
+    space = ShellSpace(fitted_mesh(case, punches))
+    A = model.stiffness(space)
+    F = load_vector(space, case.loads)
+    red = Reduction.build(space, case.supports)
+    Ar, Fr = red.reduce_matrix(A), red.reduce_vector(F)
+    op = contact_operator(space, punches, contact_points or opts.contact_points)
+    qp = ContactQP(Ar, Fr, op.B @ red.P, op.G, op.weights, D=op.D, P=op.forces if op.D is not None else None,
+                   row_labels=_row_labels(op))
+    return qp, op, red, space
+
+
+def export_qp(case, contact_points: str | None = None):
+    """The reduced contact QP (``shellcontact.solvers.ContactQP``) of ``case``, as ``analysis.solve`` solves it."""
+    return export_qp_parts(case, contact_points)[0]

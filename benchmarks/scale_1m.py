@@ -1,0 +1,287 @@
+"""Targets 5 and 6: the demo case end to end from ~10k to ~1M dofs, and the digits of its contact force.
+
+    python benchmarks/scale_1m.py            # levels mesh.refine = 0..3 of the 32 × 32 demo mesh (18k → 1.13M dofs)
+                                             # plus a 24 × 24 mesh (10k dofs); several minutes, ~10 GB
+    python benchmarks/scale_1m.py --quick    # refine 0..1 only (18k, 72k dofs): the 1M targets stay null
+    python benchmarks/scale_1m.py --levels 2 --method dual --nested
+
+Every size runs ``shellcontact.solve(case)`` on src/shellcontact/cases/paper_panel.toml with
+``mesh.refine = r`` (nested uniform refinement of the graded, punch-fitted 32 × 32 mesh) in a fresh
+subprocess, then writes summary.json, fields.vtu and results.npz to a temporary directory
+(``Result.write(..., figures=False, report=False)``). Per stage (the stages of ``Result.timings``:
+mesh, assembly, factorization, nested, solve; and output) it records wall and CPU seconds and the
+peak resident set of the process during that stage (Linux VmHWM, reset at every stage start through
+/proc/self/clear_refs; the benchmark wraps ``analysis.Timer`` for this, the package is unchanged).
+The whole-run peak is the largest of those.
+
+Force digits (target 6): the punch force (``contact[0].force_magnitude``) at the nested levels
+r = 0..L; Richardson extrapolation from the last three levels, F∞ = F_L + (F_L − F_{L−1})/(2^p − 1)
+with the observed order p = log2((F_{L−2} − F_{L−1})/(F_{L−1} − F_L)); digits of F_L =
+−log10(|F_L − F∞| / |F∞|). This measures the discretisation error of the finest level, which
+bounds the digits it can agree with the extrapolation, whatever the algebra does.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import common  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE = ROOT / "src" / "shellcontact" / "cases" / "paper_panel.toml"
+GOALS = {"seconds_1M_dofs": 60.0, "peak_gb_1M_dofs": 16.0, "force_digits_1M_dofs": 8.0}
+STAGES = ("mesh", "assembly", "factorization", "nested", "solve", "output")
+
+# ---- per-stage peak RSS -------------------------------------------------------------------------------------------
+
+
+def _hwm_bytes() -> int:
+    m = re.search(r"VmHWM:\s+(\d+)\s*kB", Path("/proc/self/status").read_text())
+    return int(m.group(1)) * 1024 if m else common.max_rss_bytes()
+
+
+def _reset_hwm() -> bool:
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+        return True
+    except OSError:
+        return False
+
+
+class _Peaks:
+    """Peak RSS per (possibly nested) stage: fold VmHWM into every open stage, then reset it."""
+
+    def __init__(self) -> None:
+        self.open: list[list] = []  # [name, peak]
+        self.peaks: dict[str, int] = {}
+        self.overall = 0
+        self.resettable = True
+
+    def _fold(self) -> None:
+        h = _hwm_bytes()
+        self.overall = max(self.overall, h)
+        for s in self.open:
+            s[1] = max(s[1], h)
+
+    def enter(self, name: str) -> None:
+        self._fold()
+        self.resettable = _reset_hwm() and self.resettable
+        self.open.append([name, 0])
+        self._fold()
+
+    def exit(self) -> None:
+        self._fold()
+        name, peak = self.open.pop()
+        self.peaks[name] = max(self.peaks.get(name, 0), peak)
+
+
+PEAKS = _Peaks()
+CPU: dict[str, float] = {}
+
+
+def _install_timer() -> None:
+    """Wrap analysis.Timer so that each stage also records its peak RSS and CPU seconds."""
+    from shellcontact import analysis
+
+    base = analysis.Timer
+
+    class MemTimer(base):
+        def stage(self, name: str):
+            inner = base.stage(self, name)
+
+            class _S:
+                def __enter__(self_):
+                    PEAKS.enter(name)
+                    self_.c0 = time.process_time()
+                    return inner.__enter__()
+
+                def __exit__(self_, *exc):
+                    out = inner.__exit__(*exc)
+                    CPU[name] = CPU.get(name, 0.0) + time.process_time() - self_.c0
+                    PEAKS.exit()
+                    return out
+
+            return _S()
+
+    analysis.Timer = MemTimer
+
+
+def worker(n: int, refine: int, method: str, nested: bool) -> dict:
+    import scipy.sparse as sp
+
+    from shellcontact import linalg
+    from shellcontact.analysis import solve
+    from shellcontact.case import load_case
+
+    linalg.factorize(sp.identity(4, format="csr")).solve(np.ones(4))  # load the libraries outside the timings
+    _install_timer()
+    over = [f"mesh.nx={n}", f"mesh.nphi={n}", f"mesh.refine={refine}", f"solver.method={method}"]
+    if nested:
+        over.append("solver.nested=true")
+    case = load_case(CASE, over)
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = solve(case)
+    with tempfile.TemporaryDirectory() as tmp:
+        PEAKS.enter("output")
+        c1, t1 = time.process_time(), time.perf_counter()
+        written = res.write(tmp, figures=False, report=False)
+        t_out, c_out = time.perf_counter() - t1, time.process_time() - c1
+        PEAKS.exit()
+        sizes = {k: Path(p).stat().st_size for k, p in written.items()}
+        summary = json.loads((Path(tmp) / "summary.json").read_text())
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    timings = {k: float(v) for k, v in res.timings.items() if k not in ("total", "output")}
+    timings["output"] = t_out
+    CPU["output"] = c_out
+    cs = res.contact.solution
+    c0_ = summary["contact"][0]
+    return {
+        "n": n, "refine": refine, "method": method, "nested": nested,
+        "dofs": int(res.solution.space.ndofs), "unknowns": int(res.info["unknowns"]),
+        "triangles": int(res.solution.space.mesh.nelements), "nnz_A": int(res.solution.A.nnz),
+        "constraints": int(res.contact.operator.m), "active": int(res.contact.active.sum()),
+        "iterations": int(cs.iterations), "nested_iterations": res.info.get("nested_iterations"),
+        "backend": res.info.get("backend"),
+        "timings": timings, "cpu": dict(CPU), "wall": wall, "cpu_total": cpu,
+        "peak_rss": {k: v for k, v in PEAKS.peaks.items()}, "peak_rss_overall": PEAKS.overall,
+        "hwm_reset": PEAKS.resettable,
+        "force": float(c0_["force_magnitude"]), "total_normal_force": float(c0_["total_normal_force"]),
+        "kkt_scaled": summary.get("kkt_scaled"), "kkt": summary.get("kkt"), "written_bytes": sizes,
+        "warnings": summary.get("warnings", []),
+    }
+
+
+def fit_exponent(x, y) -> float | None:
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = (x > 0) & (y > 0)
+    if ok.sum() < 2:
+        return None
+    return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
+
+
+def richardson(forces: list[float]) -> dict:
+    """Extrapolated force, observed order and digits of the finest level (needs ≥ 3 nested levels)."""
+    if len(forces) < 3:
+        return {"reason": f"needs 3 nested levels, got {len(forces)}"}
+    f0, f1, f2 = forces[-3:]
+    d1, d2 = f0 - f1, f1 - f2
+    out: dict = {"differences": [forces[i + 1] - forces[i] for i in range(len(forces) - 1)]}
+    if d2 == 0 or d1 / d2 <= 1.0:
+        out["reason"] = "the differences between levels do not decrease monotonically: no asymptotic order"
+        out["digits_vs_previous_level"] = -math.log10(abs(d2) / abs(f2)) if d2 else None
+        return out
+    p = math.log2(d1 / d2)
+    f_inf = f2 + (f2 - f1) / (2**p - 1)
+    out.update({"order": p, "extrapolated": f_inf, "error_finest": abs(f2 - f_inf) / abs(f_inf),
+                "digits": -math.log10(abs(f2 - f_inf) / abs(f_inf))})
+    if len(forces) >= 4:
+        e0, e1 = forces[-4] - forces[-3], forces[-3] - forces[-2]
+        out["order_previous_triple"] = math.log2(e0 / e1) if e1 and e0 / e1 > 0 else None
+    return out
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="refine 0..1 only; the 1M targets stay null")
+    ap.add_argument("--n", type=int, default=32, help="base mesh n × n (default 32, the case's own)")
+    ap.add_argument("--levels", type=int, help="finest mesh.refine (default 3: 1.13M dofs; quick 1)")
+    ap.add_argument("--method", default="active-set")
+    ap.add_argument("--nested", action="store_true", help="solver.nested = true (coarse-level start)")
+    ap.add_argument("--extra", default="24", help="extra unrefined meshes n for the scaling table (comma list)")
+    ap.add_argument("--worker", nargs="*")
+    args = ap.parse_args(argv)
+    if args.worker:
+        n, r, m, nest = args.worker
+        res = worker(int(n), int(r), m, nest == "1")
+        common.emit(res)
+        return res
+    L = args.levels if args.levels is not None else (1 if args.quick else 3)
+    info = common.machine()
+    runs = []
+    plan = [(int(e), 0) for e in args.extra.split(",") if e and not args.quick] + [(args.n, r) for r in range(L + 1)]
+    for n, r in plan:
+        t0 = time.perf_counter()
+        try:
+            res = common.run_worker(Path(__file__), [str(n), str(r), args.method, "1" if args.nested else "0"],
+                                    timeout=1200)
+        except Exception as exc:
+            print(f"n={n} refine={r}: failed: {str(exc)[-600:]}", flush=True)
+            break
+        res["wall_process"] = time.perf_counter() - t0
+        runs.append(res)
+        print(f"  n={n} refine={r}: {res['dofs']} dofs, {res['wall']:.1f} s, "
+              f"peak {res['peak_rss_overall'] / 2**30:.2f} GB, force {res['force']:.12g} N", flush=True)
+    runs.sort(key=lambda r: r["dofs"])
+    print(f"# Demo case end to end ({CASE.name}, method {args.method}{', nested' if args.nested else ''}; "
+          f"outputs: summary.json, fields.vtu, results.npz; figures off)")
+    print(common.machine_line(info))
+    stages = [s for s in STAGES if any(s in r["timings"] for r in runs)]
+    gb = 2**30
+    rows = [[r["dofs"], f"{r['n']}/{r['refine']}", r["constraints"], r["active"], r["iterations"],
+             *[r["timings"].get(s, 0.0) for s in stages], r["wall"], r["cpu_total"], r["peak_rss_overall"] / gb]
+            for r in runs]
+    expo = ["exponent p (wall)", "", "", "", "", *[fit_exponent([r["dofs"] for r in runs],
+                                                               [r["timings"].get(s, 0.0) for r in runs])
+                                                  for s in stages],
+            fit_exponent([r["dofs"] for r in runs], [r["wall"] for r in runs]),
+            fit_exponent([r["dofs"] for r in runs], [r["cpu_total"] for r in runs]),
+            fit_exponent([r["dofs"] for r in runs], [r["peak_rss_overall"] for r in runs])]
+    print("\nwall seconds per stage (Result.timings), total wall and CPU seconds, peak RSS GB")
+    print(common.table(["dofs", "n/refine", "constraints", "active", "iterations", *stages, "total s", "CPU s",
+                        "peak GB"], rows + [[e if e is not None else "-" for e in expo]]))
+    print("\npeak RSS GB per stage (VmHWM reset at each stage start) and CPU seconds per stage")
+    print(common.table(["dofs", *[f"{s} GB" for s in stages], *[f"{s} CPU s" for s in stages]],
+                       [[r["dofs"], *[r["peak_rss"].get(s, 0) / gb for s in stages],
+                         *[r["cpu"].get(s, 0.0) for s in stages]] for r in runs]))
+    nested_runs = [r for r in runs if r["n"] == args.n]
+    forces = [r["force"] for r in nested_runs]
+    rich = richardson(forces)
+    print("\ncontact force at the nested levels (punch force magnitude, N)")
+    print(common.table(["refine", "dofs", "force N", "difference to previous", "largest scaled KKT"],
+                       [[r["refine"], r["dofs"], f"{r['force']:.12g}",
+                         f"{r['force'] - nested_runs[i - 1]['force']:.4g}" if i else "-",
+                         max((r["kkt_scaled"] or {"-": float("nan")}).values())]
+                        for i, r in enumerate(nested_runs)]))
+    print("Richardson: " + json.dumps(rich))
+    finest = nested_runs[-1] if nested_runs else None
+    targets = {}
+    if args.quick or finest is None or finest["dofs"] < 900_000:
+        why = ("--quick: no 1M-dof run" if args.quick else
+               f"the finest run has {finest['dofs'] if finest else 0} dofs (< 900k)")
+        for k, g in GOALS.items():
+            targets[k] = common.target(None, g, None, None, reason=why)
+    else:
+        d = finest["dofs"]
+        targets["seconds_1M_dofs"] = common.target(
+            round(finest["wall"], 1), GOALS["seconds_1M_dofs"], "s wall, mesh + assembly + contact solve + outputs",
+            "goal of issue 5", dofs=d, cpu_seconds=round(finest["cpu_total"], 1), method=args.method,
+            nested=args.nested, stages={k: round(v, 2) for k, v in finest["timings"].items()})
+        targets["peak_gb_1M_dofs"] = common.target(
+            round(finest["peak_rss_overall"] / gb, 2), GOALS["peak_gb_1M_dofs"], "GB peak resident set of the process",
+            "goal of issue 5", dofs=d)
+        if "digits" in rich:
+            targets["force_digits_1M_dofs"] = common.target(
+                round(rich["digits"], 2), GOALS["force_digits_1M_dofs"],
+                "significant digits of the 1M-dof force that agree with the Richardson extrapolation of the nested "
+                "levels", "Richardson extrapolation", dofs=d, order=round(rich["order"], 3),
+                extrapolated=rich["extrapolated"], force=finest["force"])
+        else:
+            targets["force_digits_1M_dofs"] = common.target(None, GOALS["force_digits_1M_dofs"], None, None,
+                                                            reason=rich.get("reason", ""))
+    out = {"targets": targets, "runs": runs, "richardson": rich, "machine": info}
+    print(json.dumps(out))
+    return out
+
+
+if __name__ == "__main__":
+    main()
