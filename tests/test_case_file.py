@@ -244,3 +244,29 @@ def test_thickness_function_enters_the_stiffness_at_x_phi():
     integral = t0 * sh.length * sh.radius * (be - al) * (1.0 + 0.2 * xm + 0.15)
     exact = sh.young / (1 - sh.poisson**2) * integral
     assert math.isclose(float(U @ (A @ U)), exact, rel_tol=1e-12)
+
+
+def test_position_dependent_load_from_a_case_file(tmp_path, monkeypatch):
+    """loads.normal = "module:callable" is the same load as the callable given from Python."""
+    import shellcontact.loads as ld
+
+    (tmp_path / "myloads.py").write_text(
+        "import numpy as np\n\ndef hydro(x, phi):\n    return 9810.0 * (1.0 - np.sin(phi)) * (1.0 + 0.1 * x)\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    raw = {
+        "shell": {"radius": 1.0, "length": 2.0, "full": True, "thickness": 0.01, "young": 2e11, "poisson": 0.3},
+        "supports": {"x_min": "clamped", "x_max": "clamped"},
+        "mesh": {"nx": 6, "nphi": 8},
+        "loads": {"normal": "myloads:hydro"},
+    }
+    case = sc.case_from_dict(raw)
+    assert callable(case.loads.normal)
+    import myloads
+
+    from_python = sc.case_from_dict({**raw, "loads": {}})
+    from_python.loads = ld.Loads(normal=myloads.hydro)
+    e1, e2 = sc.solve(case).solution.energy, sc.solve(from_python).solution.energy
+    assert e1 == pytest.approx(e2, rel=1e-13) and e1 > 0
+    with pytest.raises(sc.InputError, match="loads.normal"):
+        sc.case_from_dict({**raw, "loads": {"normal": "myloads:nothing"}})

@@ -192,6 +192,18 @@ def parse_mesh(d: dict) -> MeshSpec:
     )
 
 
+def _field(d: dict, key: str, where: str, parse, default):
+    """A load value: a constant, or 'module:callable' for a function of (x, phi) (phi in radians)."""
+    value = d.get(key)
+    if isinstance(value, str):
+        if ":" not in value:
+            kind = "a number" if parse is number else "a list of 3 numbers"
+            raise InputError(f"{where}.{key}", f"must be {kind} (or 'module:callable', a function of (x, phi)), "
+                             f"got {value!r}")
+        return callable_from_string(value, f"{where}.{key}")
+    return parse(d, key, where, default)
+
+
 def parse_loads(d: dict) -> Loads:
     if not isinstance(d, dict):
         raise InputError("loads", "must be a table")
@@ -215,15 +227,15 @@ def parse_loads(d: dict) -> Loads:
             raise InputError(where, "give exactly one of 'x' or 'phi'")
         lines.append(
             LineLoad(
-                force=vector(p, "force", where, (0.0, 0.0, 0.0)),
-                normal=number(p, "normal", where, 0.0),
+                force=_field(p, "force", where, vector, (0.0, 0.0, 0.0)),
+                normal=_field(p, "normal", where, number, 0.0),
                 x=number(p, "x", where) if "x" in p else None,
                 phi=math.radians(number(p, "phi", where)) if "phi" in p else None,
             )
         )
     return Loads(
-        normal=number(d, "normal", "loads", 0.0),
-        surface=vector(d, "surface", "loads", (0.0, 0.0, 0.0)),
+        normal=_field(d, "normal", "loads", number, 0.0),
+        surface=_field(d, "surface", "loads", vector, (0.0, 0.0, 0.0)),
         lines=tuple(lines),
         points=tuple(points),
     )
