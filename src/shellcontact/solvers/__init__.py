@@ -13,6 +13,10 @@ Public API::
     solve_dual(qp, tol=1e-10, max_iterations=500, factorization=None)
     kkt_residuals(qp, U, Lambda, delta=None, factorization=None) -> dict
 
+    # a predicted active set I0 known BEFORE factorising (same rows: a re-solve, a sweep step):
+    K, r = augmentation(qp, I0)                                  # K = A + B_I0ᵀ diag(r) B_I0
+    solve_augmented(qp, I0, r, factorization=factorize(K), tol=1e-10)   # factorise K instead of A
+
 All three return a ``ContactSolution`` (U, Lambda = nodal forces, pressure = Λ/ω, active,
 delta, iterations, residuals, method, history, timings, energy, dual_value, info). Pass
 ``factorization=shellcontact.linalg.factorize(A)`` to share one factorisation between solves.
@@ -33,6 +37,10 @@ Options beyond the common API: ``initial_U`` (active set, penalty), ``initial_la
 ``initial_active`` (dual), ``growth`` (active set, dual: restricted growth of the working set),
 ``fallback`` (active set), ``hessian="schur"|"refactorize"`` (penalty).
 
+``solve_augmented`` (module ``augmented``) needs no column of S: conjugate gradients on the
+augmented-Lagrangian dual, a few solves with K; a wrong prediction falls back to the exact active
+set with A⁻¹ = Woodbury(K⁻¹) on the same factors (|I0| extra columns), never a second factorisation.
+
 Modules: qp (data, feasibility check), kkt (residuals, duality gap), schur (factorisation and
 S columns), penalty, active_set (PDAS + fallback), dual (MPRGP with exact face solves,
 SMALBE for force control), synthetic (test problems; ``python -m shellcontact.solvers.synthetic``
@@ -40,12 +48,14 @@ prints iteration counts and timings).
 """
 
 from .active_set import solve_active_set
+from .augmented import AugmentedInverse, augmentation, solve_augmented
 from .dual import solve_dual
 from .kkt import dual_value, kkt_residuals, lagrangian
 from .penalty import solve_penalty
 from .qp import ContactQP, ContactSolution, InfeasibleProblemError, check_feasibility
 
 __all__ = [
+    "AugmentedInverse",
     "ContactQP",
     "ContactSolution",
     "InfeasibleProblemError",
@@ -53,6 +63,8 @@ __all__ = [
     "dual_value",
     "kkt_residuals",
     "lagrangian",
+    "augmentation",
+    "solve_augmented",
     "solve_active_set",
     "solve_dual",
     "solve_penalty",

@@ -90,6 +90,8 @@ class Workspace:
         """Blocked solve without iterative refinement (it would triple the cost of the columns;
         round-off in S is corrected by the refinement on the true gaps at the end)."""
         f = self.fact
+        if hasattr(f, "raw_solve"):  # augmented.AugmentedInverse
+            return f.raw_solve(R)
         if isinstance(f, Factorization):
             sc = f.scale[:, None]
             return sc * f.impl.solve(sc * R)
