@@ -76,11 +76,17 @@ def test_woodbury_inverse_is_a_inverse() -> None:
     I0 = np.zeros(qp.m, dtype=bool)
     I0[::3] = True
     K, r = augmentation(qp, I0)
-    inv = AugmentedInverse(qp.A, factorize(K), qp.B[np.flatnonzero(r > 0)], r[r > 0])
+    rows = np.flatnonzero(r > 0)
+    inv = AugmentedInverse(qp.A, factorize(K), qp.B[rows], r[rows], rows=rows)
     b = np.random.default_rng(0).standard_normal((qp.n, 3))
     x = inv.solve(b)
-    assert _rel(x, factorize(qp.A).solve(b)) <= 1e-9
+    fA = factorize(qp.A)
+    assert _rel(x, fA.solve(b)) <= 1e-9
     assert _rel(qp.A @ x, b) <= 1e-12
+    # the Schur columns S[:, I0] it provides without solves
+    got_rows, cols = inv.schur_columns(qp.B)
+    assert np.array_equal(got_rows, rows)
+    assert _rel(cols, qp.B @ fA.solve(qp.B[rows].T.toarray())) <= 1e-8
 
 
 @pytest.mark.parametrize("max_add", [4, 16])

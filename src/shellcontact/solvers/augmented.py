@@ -20,7 +20,8 @@ The working set is then checked exactly (Λ_I ≥ 0, gaps off I ≥ 0, every sca
 (``solve_active_set``) takes over, warm-started from the primal–dual update of the working set,
 with A⁻¹ applied through the SAME factorisation by the Woodbury identity (``AugmentedInverse``:
 A⁻¹ = K⁻¹ + K⁻¹B_0ᵀ C⁻¹ B_0K⁻¹, C = R⁻¹ − B_0K⁻¹B_0ᵀ, |I0| blocked columns of K⁻¹B_0ᵀ, solves
-refined against A itself) — no second factorisation; the answer is always the exact KKT point,
+refined against A itself; the columns S[:, I0] come from the same products without a solve) — no
+second factorisation; the answer is always the exact KKT point,
 only the cost differs. Optionally (``max_refactor`` > 0) up to that many primal–dual rounds with a
 numeric refactorisation of K for the updated set come first (``Factorization.refactor``).
 
@@ -194,7 +195,8 @@ def solve_augmented(
         I = I_new & (r > 0)
     # the exact active-set method, A⁻¹ by Woodbury through the same factorisation of K
     tf = time.perf_counter()
-    inv = AugmentedInverse(qp.A, fac, qp.B[np.flatnonzero(r > 0)], r[r > 0])
+    rows0 = np.flatnonzero(r > 0)
+    inv = AugmentedInverse(qp.A, fac, qp.B[rows0], r[rows0], rows=rows0)
     timings["schur"] += time.perf_counter() - tf
     v = live & ~I & (g < 0)
     if v.any():
@@ -217,7 +219,10 @@ class AugmentedInverse:
     ``Factorization`` of A for the solvers: ``raw_solve`` (no refinement: Schur columns) and
     ``solve`` (iterative refinement against A, LAPACK's stopping rule as in ``linalg``)."""
 
-    def __init__(self, A, fac: Factorization, B0: sp.spmatrix, r0: np.ndarray, refine_steps: int = 5) -> None:
+    def __init__(self, A, fac: Factorization, B0: sp.spmatrix, r0: np.ndarray, refine_steps: int = 5,
+                 rows: np.ndarray | None = None) -> None:
+        self.rows = np.asarray(rows, dtype=np.int64) if rows is not None else None
+        self.r0 = np.asarray(r0, dtype=float)
         self.A = sp.csr_matrix(A)
         self.fac = fac
         self.backend = fac.backend
@@ -233,6 +238,14 @@ class AugmentedInverse:
         C = np.diag(1.0 / r0) - self.B0 @ self.W
         self.cf = sla.cho_factor(0.5 * (C + C.T), lower=True, check_finite=False) if self.rank else None
         self._norm = float(np.max(np.add.reduceat(np.abs(self.A.data), self.A.indptr[:-1]))) if self.A.nnz else 0.0
+
+    def schur_columns(self, B: sp.spmatrix) -> tuple[np.ndarray, np.ndarray]:
+        """S[:, rows] = B A⁻¹ B_0ᵀ for the rows of B_0 (``rows``, their indices in B) without a solve:
+        A⁻¹B_0ᵀ = W C⁻¹ diag(1/r) (Woodbury with B_0 W = diag(1/r) − C)."""
+        if self.rows is None or not self.rank:
+            return np.zeros(0, dtype=np.int64), np.zeros((B.shape[0], 0))
+        X = sla.cho_solve(self.cf, np.diag(1.0 / self.r0), check_finite=False)
+        return self.rows, (B @ self.W) @ X
 
     def _k_raw(self, b: np.ndarray) -> np.ndarray:
         f = self.fac

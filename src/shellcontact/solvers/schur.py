@@ -47,6 +47,18 @@ class Workspace:
         self._pos = np.full(m, -1, dtype=np.int64)
         gmax = float(np.abs(qp.G).max()) if m else 0.0
         self.lscale = max(gmax, float(np.abs(self.BU0).max()) if m else 0.0, TINY)
+        seed = getattr(self.fact, "schur_columns", None)  # augmented.AugmentedInverse: S[:, I0] without solves
+        if seed is not None:
+            t = time.perf_counter()
+            rows, cols = seed(qp.B)
+            if rows.size:
+                self._store = np.empty((m, max(rows.size, 16)))
+                self._store[:, : rows.size] = cols
+                self._pos[rows] = np.arange(rows.size)
+                self._ncol = rows.size
+                M = cols[rows]
+                self._store[np.ix_(rows, np.arange(rows.size))] = 0.5 * (M + M.T)
+            self.timings["schur"] += time.perf_counter() - t
 
     # -- linear algebra -------------------------------------------------------------------
     def solve(self, b: np.ndarray) -> np.ndarray:
