@@ -275,6 +275,13 @@ def main(argv=None) -> dict:
                 "significant digits of the 1M-dof force that agree with the Richardson extrapolation of the nested "
                 "levels", "Richardson extrapolation", dofs=d, order=round(rich["order"], 3),
                 extrapolated=rich["extrapolated"], force=finest["force"])
+        elif rich.get("digits_vs_previous_level") is not None:
+            # no asymptotic order: the best available statement is the agreement with the previous level
+            targets["force_digits_1M_dofs"] = common.target(
+                round(rich["digits_vs_previous_level"], 2), GOALS["force_digits_1M_dofs"],
+                "significant digits of the 1M-dof force that agree with the previous nested level",
+                "previous nested level (no Richardson extrapolation possible)", dofs=d, force=finest["force"],
+                differences=rich["differences"], note=rich["reason"] + "; the value is -log10(|F_L - F_{L-1}|/|F_L|)")
         else:
             targets["force_digits_1M_dofs"] = common.target(None, GOALS["force_digits_1M_dofs"], None, None,
                                                             reason=rich.get("reason", ""))
