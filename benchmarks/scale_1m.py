@@ -116,7 +116,7 @@ def _install_timer() -> None:
     analysis.Timer = MemTimer
 
 
-def worker(n: int, refine: int, method: str, nested: bool) -> dict:
+def worker(n: int, refine: int, method: str, nested: bool, backend: str = "auto") -> dict:
     import scipy.sparse as sp
 
     from shellcontact import linalg
@@ -128,6 +128,8 @@ def worker(n: int, refine: int, method: str, nested: bool) -> dict:
     over = [f"mesh.nx={n}", f"mesh.nphi={n}", f"mesh.refine={refine}", f"solver.method={method}"]
     if nested:
         over.append("solver.nested=true")
+    if backend != "auto":
+        over.append(f"solver.backend={backend}")
     case = load_case(CASE, over)
     t0, c0 = time.perf_counter(), time.process_time()
     res = solve(case)
@@ -197,12 +199,13 @@ def main(argv=None) -> dict:
     ap.add_argument("--levels", type=int, help="finest mesh.refine (default 3: 1.13M dofs; quick 1)")
     ap.add_argument("--method", default="active-set")
     ap.add_argument("--nested", action="store_true", help="solver.nested = true (coarse-level start)")
+    ap.add_argument("--backend", default="auto", help="solver.backend (pardiso, cholmod, superlu; default auto)")
     ap.add_argument("--extra", default="24", help="extra unrefined meshes n for the scaling table (comma list)")
     ap.add_argument("--worker", nargs="*")
     args = ap.parse_args(argv)
     if args.worker:
-        n, r, m, nest = args.worker
-        res = worker(int(n), int(r), m, nest == "1")
+        n, r, m, nest, backend = args.worker
+        res = worker(int(n), int(r), m, nest == "1", backend)
         common.emit(res)
         return res
     L = args.levels if args.levels is not None else (1 if args.quick else 3)
@@ -212,7 +215,8 @@ def main(argv=None) -> dict:
     for n, r in plan:
         t0 = time.perf_counter()
         try:
-            res = common.run_worker(Path(__file__), [str(n), str(r), args.method, "1" if args.nested else "0"],
+            res = common.run_worker(Path(__file__), [str(n), str(r), args.method, "1" if args.nested else "0",
+                                                              args.backend],
                                     timeout=1200)
         except Exception as exc:
             print(f"n={n} refine={r}: failed: {str(exc)[-600:]}", flush=True)
