@@ -589,3 +589,12 @@ def test_case_file_reference_documents_every_contact_key():
     assert not missing, f"undocumented keys: {missing}"
     assert all(f'`"{s}"`' in section for s in SHAPES)
     assert "placeholder" not in section.lower() and "is documented by the contact work" not in section
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_progress_reports_every_solver_iteration(method):
+    """solve(..., progress=f) calls f once per contact-solver iteration (the CLI's progress display)."""
+    seen: list[int] = []
+    res = solve(case_from_dict(sphere_dict()), method=method, progress=lambda it, residuals: seen.append(it))
+    assert len(seen) >= res.contact.solution.iterations >= 1
+    assert seen == sorted(seen)

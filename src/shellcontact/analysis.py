@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -250,8 +251,11 @@ class Result:
 
 
 def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndarray | None,
-                   initial_active: np.ndarray | None, eps: float):
+                   initial_active: np.ndarray | None, eps: float, progress=None):
     kw: dict[str, Any] = {"tol": opts.tolerance, "factorization": fac}
+    if progress is not None:  # progress(iteration, numeric fields of the solver's record)
+        kw["callback"] = lambda rec: progress(
+            int(rec.get("iteration", 0)), {k: v for k, v in rec.items() if isinstance(v, float)})
     if opts.max_iterations is not None:
         kw["max_iterations"] = opts.max_iterations
     if opts.method == "penalty":
@@ -265,8 +269,11 @@ def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndar
 
 
 def solve(case: Case, method: str | None = None, backend: str | None = None,
-          warm_start: Result | None = None) -> Result:
-    """Solve ``case``: the linear shell problem, or the contact problem when it has punches."""
+          warm_start: Result | None = None, progress: Callable[[int, dict], None] | None = None) -> Result:
+    """Solve ``case``: the linear shell problem, or the contact problem when it has punches.
+
+    ``progress(iteration, residuals)`` is called after every contact-solver iteration.
+    """
     opts = SolverOptions.from_case(case, method)
     if backend is not None:
         opts = dataclasses.replace(opts, backend=backend)
@@ -313,7 +320,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     if opts.method == "penalty":
         info["penalty"] = eps
     with timer.stage("solve"):
-        cs = _solve_contact(qp, opts, fac, initial_U_r, initial_active, eps)
+        cs = _solve_contact(qp, opts, fac, initial_U_r, initial_active, eps, progress)
     U = red.expand(cs.U)
     timings = timer.total()
     info["solver_timings"] = dict(cs.timings)

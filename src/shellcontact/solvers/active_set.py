@@ -29,12 +29,14 @@ a coarser mesh) or ``initial_U`` (I0 = {g(U) ≤ 10⁻⁶·length scale}).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..errors import InputError, SolverError
 from ..linalg import Factorization
 from .dual import dual_core
-from .qp import ContactQP, ContactSolution
+from .qp import ContactQP, ContactSolution, History
 from .schur import Workspace
 
 
@@ -69,6 +71,7 @@ def solve_active_set(
     fallback: bool = True,
     growth: float = 0.9,
     max_add: int | None = None,
+    callback: Callable[[dict], None] | None = None,
 ) -> ContactSolution:
     """PDAS with cycle-detection fallback (module docstring). ``max_iterations`` bounds PDAS
     iterations plus fallback iterations. ``growth`` θ ∈ [0, 1): add to the working set only the
@@ -105,7 +108,7 @@ def solve_active_set(
         I = violated(ws.c0, np.zeros(qp.m, dtype=bool))
     if k:
         I = ws.first_contact(I, ws.c0)
-    history: list = []
+    history: list = History(callback)
     seen: set[bytes] = set()
     lam = np.zeros(qp.m)
     delta = np.zeros(k) if k else None

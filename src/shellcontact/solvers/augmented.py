@@ -37,6 +37,7 @@ i.e. κ_i = r_i S_ii ≈ 1e5–1e7.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 import scipy.linalg as sla
@@ -46,7 +47,7 @@ from ..errors import InputError, SolverError
 from ..linalg import Factorization
 from .active_set import _as_mask, _check_common, solve_active_set
 from .kkt import TINY, evaluate
-from .qp import ContactQP, ContactSolution, check_feasibility
+from .qp import ContactQP, ContactSolution, History, check_feasibility
 
 DEFAULT_STRENGTH = 30.0
 
@@ -121,6 +122,7 @@ def solve_augmented(
     max_refactor: int = 0,
     cg_iterations: int = 200,
     growth: float = 0.9,
+    callback: Callable[[dict], None] | None = None,
 ) -> ContactSolution:
     """Exact contact solve with ``factorization`` = factorize(K), (K, r) = augmentation(qp, active)
     (module docstring). ``factorization`` is refactorised in place when the predicted set is wrong."""
@@ -135,7 +137,7 @@ def solve_augmented(
     fac = factorization
     r = np.asarray(r, dtype=float).copy()
     I = _as_mask(active, qp.m) & live & (r > 0)
-    history: list = []
+    history: list = History(callback)
     n_solves = 0
     n_refactor = 0
     lam = np.zeros(qp.m)

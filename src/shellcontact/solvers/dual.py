@@ -41,7 +41,7 @@ import numpy as np
 
 from ..errors import InputError, SolverError
 from ..linalg import Factorization
-from .qp import ContactQP, ContactSolution
+from .qp import ContactQP, ContactSolution, History
 from .schur import Workspace
 
 _NEG = 1e-13  # relative size below which a negative face-minimiser component counts as zero
@@ -242,6 +242,7 @@ def solve_dual(
     gamma: float = 1.0,
     rho: float | None = None,
     growth: float = 0.9,
+    callback: Callable[[dict], None] | None = None,
 ) -> ContactSolution:
     """Dual method (module docstring). Warm start from Λ (``initial_lambda``) or from an
     active set (``initial_active``: the face solve on it, clipped at 0). ``growth`` θ = 0 gives
@@ -250,7 +251,7 @@ def solve_dual(
 
     _check_common(tol, max_iterations)
     ws = Workspace(qp, factorization)
-    history: list = []
+    history: list = History(callback)
     lam0 = np.zeros(qp.m)
     if initial_lambda is not None:
         lam0 = np.maximum(np.asarray(initial_lambda, dtype=float).reshape(qp.m), 0.0)

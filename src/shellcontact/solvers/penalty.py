@@ -23,7 +23,7 @@ problem then show penetration and complementarity of order ε, as they must.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -32,7 +32,7 @@ from ..errors import InputError, SolverError
 from ..linalg import Factorization, factorize
 from .active_set import _check_common
 from .kkt import TINY, evaluate
-from .qp import ContactQP, ContactSolution
+from .qp import ContactQP, ContactSolution, History
 from .schur import Workspace
 
 
@@ -55,6 +55,7 @@ def solve_penalty(
     factorization: Factorization | None = None,
     hessian: str = "schur",
     initial_U: np.ndarray | None = None,
+    callback: Callable[[dict], None] | None = None,
 ) -> ContactSolution:
     """Penalty solution for ``epsilon``; ``continuation`` = ε values solved first (in the given
     order, each warm-starting the next). ``max_iterations`` bounds Newton steps per ε."""
@@ -66,7 +67,7 @@ def solve_penalty(
     if hessian == "refactorize":
         if qp.k:
             raise InputError("solver.penalty_hessian", "'refactorize' does not support force control; use 'schur'")
-        return _penalty_refactorize(qp, seq, tol, max_iterations, factorization, initial_U)
+        return _penalty_refactorize(qp, seq, tol, max_iterations, factorization, initial_U, callback)
     ws = Workspace(qp, factorization)
     k = qp.k
     mu = np.zeros(qp.m)
@@ -74,7 +75,7 @@ def solve_penalty(
     if initial_U is not None:
         g0 = qp.gap(np.asarray(initial_U, dtype=float))
         mu = qp.weights / seq[0] * np.maximum(-g0, 0.0) * ws.live
-    history: list = []
+    history: list = History(callback)
     stages = []
     total = 0
     for eps in seq:
@@ -198,7 +199,8 @@ def _newton(ws: Workspace, eps: float, mu: np.ndarray, delta: np.ndarray | None,
 
 
 def _penalty_refactorize(qp: ContactQP, seq: list[float], tol: float, max_iterations: int,
-                         factorization: Factorization | None, initial_U: np.ndarray | None) -> ContactSolution:
+                         factorization: Factorization | None, initial_U: np.ndarray | None,
+                         callback: Callable[[dict], None] | None = None) -> ContactSolution:
     """The same Newton iteration in U-space, factorising A + (1/ε)B_IᵀW_IB_I at every step."""
     t0 = time.perf_counter()
     timings = {"factorization": 0.0, "solve": 0.0, "feasibility": 0.0}
@@ -210,7 +212,7 @@ def _penalty_refactorize(qp: ContactQP, seq: list[float], tol: float, max_iterat
     w = qp.weights
     A, B, F, G = qp.A, qp.B, qp.F, qp.G
     U = np.zeros(qp.n) if initial_U is None else np.asarray(initial_U, dtype=float).copy()
-    history: list = []
+    history: list = History(callback)
     total = 0
     nfact = 0
     fact_A = factorization

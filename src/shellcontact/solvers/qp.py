@@ -8,6 +8,7 @@ present only with force control (MODEL.md §5); the KKT conditions then include 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -120,6 +121,19 @@ def _vector(name: str, v: Any, size: int) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise InputError(name, "has non-finite entries")
     return a
+
+
+class History(list):
+    """Per-iteration records of a solver; ``callback(record)`` sees each one as it is appended."""
+
+    def __init__(self, callback: Callable[[dict[str, Any]], None] | None = None) -> None:
+        super().__init__()
+        self.callback = callback
+
+    def append(self, record: dict[str, Any]) -> None:
+        super().append(record)
+        if self.callback is not None:
+            self.callback(record)
 
 
 @dataclass
