@@ -32,6 +32,7 @@ from .loads import load_vector
 from .punch import Punch, fitted_mesh, punches_from_case
 from .results import ShellSolution
 from .solvers import ContactQP, ContactSolution, solve_active_set, solve_dual, solve_penalty
+from .solvers.substructure import factorize_contact, substructure_enabled
 from .spaces import ShellSpace
 from .supports import Reduction
 
@@ -288,8 +289,9 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
         red = Reduction.build(space, case.supports)
         Ar, Fr = red.reduce_matrix(A), red.reduce_vector(F)
         op = contact_operator(space, punches, opts.contact_points) if punches else None
-    with timer.stage("factorization"):
-        fac = factorize(Ar, opts.backend)
+    with timer.stage("factorization"):  # exact contact methods: the dense Schur complement of its rows too
+        exact = op is not None and opts.method != "penalty" and substructure_enabled()
+        fac = factorize_contact(Ar, op.B @ red.P, opts.backend) if exact else factorize(Ar, opts.backend)
     info: dict[str, Any] = {"backend": fac.backend, "unknowns": int(Ar.shape[0])}
 
     if op is None:
