@@ -8,6 +8,11 @@ only for constraints that ever carry force — by blocked solves with the single
 fresh solve U = A⁻¹(F + BᵀΛ) and the KKT check on that U guard against round-off in S; if
 the check fails, a few refinement steps with the true gaps as right-hand side follow
 (iterative refinement of the face system).
+
+When the factorisation carries the dense Schur complement of the QP's rows
+(``substructure.factorize_contact``: one PARDISO factorisation of A bordered by B), a column of S
+costs two dense triangular solves of order m instead of a sparse solve, and ``finish_exact``
+always does one face refinement on the true gaps (kept only if the point stays converged).
 """
 
 from __future__ import annotations
