@@ -42,9 +42,12 @@ augmented-Lagrangian dual, a few solves with K; a wrong prediction falls back to
 set with A⁻¹ = Woodbury(K⁻¹) on the same factors (|I0| extra columns), never a second factorisation.
 
 Modules: qp (data, feasibility check), kkt (residuals, duality gap), schur (factorisation and
-S columns), penalty, active_set (PDAS + fallback), dual (MPRGP with exact face solves,
-SMALBE for force control), synthetic (test problems; ``python -m shellcontact.solvers.synthetic``
-prints iteration counts and timings).
+S columns), substructure (a factorisation that also yields the dense S: ``factorize_contact``,
+used by ``analysis.solve`` for the exact methods on large problems), augmented (exact solve with
+one factorisation of A + B_I0ᵀRB_I0 when the active set is known beforehand), penalty,
+active_set (PDAS + fallback), dual (MPRGP with exact face solves, SMALBE for force control),
+synthetic (test problems; ``python -m shellcontact.solvers.synthetic`` prints iteration counts
+and timings).
 """
 
 from .active_set import solve_active_set
