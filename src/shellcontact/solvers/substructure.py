@@ -46,8 +46,9 @@ ENV_VAR = "SHELLCONTACT_SUBSTRUCTURE"
 #: 0.07 vs 0.11 s, 68k 1.38 vs 1.38-1.47 s, 211k 9.9 vs 7.7 s, 281k 32 vs 11 s
 MIN_UNKNOWNS = 100_000
 
-#: largest number of contact rows for the dense Schur complement (T and its Cholesky: 2 m² doubles)
-MAX_ROWS = 8000
+#: largest number of contact rows for the dense Schur complement (T and its Cholesky: 2 m² doubles);
+#: measured at 1.12M dofs with m = 9409: 174 s and 11.5 GB end to end, against 379 s without it
+MAX_ROWS = 12000
 
 
 def substructure_enabled() -> bool:
