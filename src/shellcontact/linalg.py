@@ -146,12 +146,15 @@ class _Pardiso:
         self.ia = U.indptr.astype(np.int32)
         self.ja = U.indices.astype(np.int32)
 
-    def _call(self, phase: int, b: np.ndarray | None = None) -> np.ndarray | None:
+    perm: np.ndarray | None = None  # rows marked for a Schur complement (solvers.substructure)
+
+    def _call(self, phase: int, b: np.ndarray | None = None, out: np.ndarray | None = None) -> np.ndarray | None:
+        """One PARDISO phase; without b, ``out`` receives what the phase writes (a Schur complement)."""
         c = self._ctypes
         nrhs = 1 if b is None or b.ndim == 1 else b.shape[1]
         if b is None:
             bb = np.zeros(self.n)
-            x = np.zeros(self.n)
+            x = out if out is not None else np.zeros(self.n)
         else:
             bb = np.asfortranarray(b, dtype=np.float64)
             x = np.zeros_like(bb)
@@ -168,7 +171,7 @@ class _Pardiso:
             self.data.ctypes.data_as(f64),
             self.ia.ctypes.data_as(i32),
             self.ja.ctypes.data_as(i32),
-            np.zeros(1, dtype=np.int32).ctypes.data_as(i32),
+            (self.perm if self.perm is not None else np.zeros(1, dtype=np.int32)).ctypes.data_as(i32),
             c.byref(c.c_int32(nrhs)),
             self.iparm.ctypes.data_as(i32),
             c.byref(c.c_int32(0)),

@@ -131,35 +131,10 @@ class _PardisoSchur(_Pardiso):
         self.T = np.zeros((m, m))
         try:
             self._call(11)
-            self._call(22, schur_out=self.T)
+            self._call(22, out=self.T)
         except SolverError:
             self.free()
             raise
-
-    def _call(self, phase: int, b: np.ndarray | None = None, schur_out: np.ndarray | None = None):
-        c = self._ctypes
-        nrhs = 1 if b is None or b.ndim == 1 else b.shape[1]
-        if b is None:
-            bb = np.zeros(self.n)
-            x = schur_out if schur_out is not None else np.zeros(self.n)
-        else:
-            bb = np.asfortranarray(b, dtype=np.float64)
-            x = np.zeros_like(bb)
-        err = c.c_int32(0)
-        i32 = c.POINTER(c.c_int32)
-        f64 = c.POINTER(c.c_double)
-        self._mkl(
-            self.pt.ctypes.data_as(c.POINTER(c.c_int64)),
-            c.byref(c.c_int32(1)), c.byref(c.c_int32(1)), c.byref(c.c_int32(2)),
-            c.byref(c.c_int32(phase)), c.byref(c.c_int32(self.n)),
-            self.data.ctypes.data_as(f64), self.ia.ctypes.data_as(i32), self.ja.ctypes.data_as(i32),
-            self.perm.ctypes.data_as(i32), c.byref(c.c_int32(nrhs)), self.iparm.ctypes.data_as(i32),
-            c.byref(c.c_int32(0)), bb.ctypes.data_as(f64), x.ctypes.data_as(f64), c.byref(err),
-        )
-        if err.value != 0:
-            reason = {-4: "zero or negative pivot: not positive definite", -2: "out of memory"}.get(err.value, "")
-            raise SolverError(f"PARDISO (Schur) phase {phase} failed with error {err.value} {reason}".strip())
-        return None if b is None else np.ascontiguousarray(x)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         if self.inner is not None:
