@@ -149,37 +149,15 @@ def target(value, goal, unit, peer, **extra) -> dict:
 
 
 def export_qp_parts(case, contact_points: str | None = None):
-    """(qp, operator, reduction, space) of ``case``: the reduced QP exactly as ``analysis.solve`` builds it.
-
-    Same steps and arguments as ``shellcontact.analysis.solve`` (punches_from_case → fitted_mesh →
-    ShellSpace → model.stiffness, load_vector → Reduction.build → contact_operator →
-    ContactQP(Ar, Fr, B P, G, weights, D, P)); ``contact_points`` defaults to the case's
-    ``[solver] contact_points``. The operator gives the punch force of a multiplier vector
-    (``operator.total_normal_force(Lambda)``); ``reduction.expand`` maps U_r to the full U.
+    """(qp, operator, reduction, space) of ``case``: the reduced QP exactly as ``analysis.solve`` builds it
+    (``analysis.discretize``); ``contact_points`` defaults to the case's ``[solver] contact_points``.
+    The operator gives the punch force of a multiplier vector (``operator.total_normal_force(Lambda)``);
+    ``reduction.expand`` maps U_r to the full U.
     """
-    from shellcontact import model
-    from shellcontact.analysis import SolverOptions, _row_labels
-    from shellcontact.contact import contact_operator
-    from shellcontact.errors import InputError
-    from shellcontact.loads import load_vector
-    from shellcontact.punch import fitted_mesh, punches_from_case
-    from shellcontact.solvers import ContactQP
-    from shellcontact.spaces import ShellSpace
-    from shellcontact.supports import Reduction
+    from shellcontact.analysis import SolverOptions, discretize
 
-    opts = SolverOptions.from_case(case)
-    punches = punches_from_case(case.punches, case.shell)
-    if not punches:
-        raise InputError("punch", "the case has no punch: there is no contact QP to export")
-    space = ShellSpace(fitted_mesh(case, punches))
-    A = model.stiffness(space)
-    F = load_vector(space, case.loads)
-    red = Reduction.build(space, case.supports)
-    Ar, Fr = red.reduce_matrix(A), red.reduce_vector(F)
-    op = contact_operator(space, punches, contact_points or opts.contact_points)
-    qp = ContactQP(Ar, Fr, op.B @ red.P, op.G, op.weights, D=op.D, P=op.forces if op.D is not None else None,
-                   row_labels=_row_labels(op))
-    return qp, op, red, space
+    d = discretize(case, contact_points or SolverOptions.from_case(case).contact_points)
+    return d.qp(), d.operator, d.reduction, d.space
 
 
 def export_qp(case, contact_points: str | None = None):

@@ -97,11 +97,8 @@ def _solved(key: str, method: str):
 
 
 def reduced_qp(result) -> tuple[ContactQP, Reduction]:
-    """The reduced QP of MODEL.md §8 rebuilt from a Result with the same building blocks as analysis.solve."""
-    sol, op = result.solution, result.contact.operator
-    red = Reduction.build(sol.space, result.case.supports)
-    qp = ContactQP(red.reduce_matrix(sol.A), red.reduce_vector(sol.F), op.B @ red.P, op.G, op.weights)
-    return qp, red
+    """The reduced QP of MODEL.md §8 that analysis.solve solved, and its support reduction."""
+    return result.discretization.qp(), result.discretization.reduction
 
 
 def rel(a, b) -> float:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from . import model
 from .case import Case, build_mesh
@@ -169,6 +170,7 @@ class Result:
     info: dict[str, Any] = field(default_factory=dict)
     contact: ContactResult | None = None
     punches: list[Punch] = field(default_factory=list)
+    discretization: Discretization | None = None  # the reduced operators (e.g. ``.qp()``)
 
     # -- outputs (thin wrappers over io, plots and report) ---------------------------------
     def write(self, directory, **kw) -> dict:
@@ -269,6 +271,44 @@ def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndar
     return solve_active_set(qp, initial_active=initial_active, **kw)
 
 
+@dataclass
+class Discretization:
+    """The discrete problem of a case: V_h, A, F, the support reduction and the contact rows."""
+
+    space: ShellSpace
+    A: sp.csr_matrix  # full stiffness
+    F: np.ndarray  # full load vector
+    reduction: Reduction
+    Ar: sp.csr_matrix  # Pᵀ A P
+    Fr: np.ndarray  # Pᵀ F
+    punches: list[Punch]
+    operator: ContactOperator | None  # None without punches
+    Br: sp.csr_matrix | None  # B P
+
+    def qp(self) -> ContactQP:
+        """The reduced contact QP of MODEL.md §8."""
+        op = self.operator
+        if op is None:
+            raise InputError("punch", "the case has no punch: there is no contact problem")
+        return ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights,
+                         D=op.D, P=op.forces if op.D is not None else None, row_labels=_row_labels(op))
+
+
+def discretize(case: Case, contact_points: str = "vertices", timer: Timer | None = None) -> Discretization:
+    """Mesh (fitted to the punches), space, assembly, supports and contact operator of ``case``."""
+    timer = timer or Timer()
+    with timer.stage("mesh"):
+        punches = punches_from_case(case.punches, case.shell)
+        space = ShellSpace(fitted_mesh(case, punches) if punches else build_mesh(case))
+    with timer.stage("assembly"):
+        A = model.stiffness(space)
+        F = load_vector(space, case.loads)
+        red = Reduction.build(space, case.supports)
+        op = contact_operator(space, punches, contact_points) if punches else None
+        return Discretization(space, A, F, red, red.reduce_matrix(A), red.reduce_vector(F), punches, op,
+                              None if op is None else op.B @ red.P)
+
+
 def solve(case: Case, method: str | None = None, backend: str | None = None,
           warm_start: Result | None = None, progress: Callable[[int, dict], None] | None = None) -> Result:
     """Solve ``case``: the linear shell problem, or the contact problem when it has punches.
@@ -279,27 +319,19 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     if backend is not None:
         opts = dataclasses.replace(opts, backend=backend)
     timer = Timer()
-    with timer.stage("mesh"):
-        punches = punches_from_case(case.punches, case.shell)
-        mesh = fitted_mesh(case, punches) if punches else build_mesh(case)
-        space = ShellSpace(mesh)
-    with timer.stage("assembly"):
-        A = model.stiffness(space)
-        F = load_vector(space, case.loads)
-        red = Reduction.build(space, case.supports)
-        Ar, Fr = red.reduce_matrix(A), red.reduce_vector(F)
-        op = contact_operator(space, punches, opts.contact_points) if punches else None
+    d = discretize(case, opts.contact_points, timer)
+    space, A, F, red, op, punches = d.space, d.A, d.F, d.reduction, d.operator, d.punches
     with timer.stage("factorization"):  # exact contact methods: the dense Schur complement of its rows too
         exact = op is not None and opts.method != "penalty" and substructure_enabled()
-        fac = factorize_contact(Ar, op.B @ red.P, opts.backend) if exact else factorize(Ar, opts.backend)
-    info: dict[str, Any] = {"backend": fac.backend, "unknowns": int(Ar.shape[0])}
+        fac = factorize_contact(d.Ar, d.Br, opts.backend) if exact else factorize(d.Ar, opts.backend)
+    info: dict[str, Any] = {"backend": fac.backend, "unknowns": int(d.Ar.shape[0])}
 
     if op is None:
         with timer.stage("solve"):
-            U = red.expand(fac.solve(Fr))
+            U = red.expand(fac.solve(d.Fr))
         timings = timer.total()
         sol = ShellSolution(space=space, U=U, A=A, F=F, timings=timings)
-        return Result(case=case, solution=sol, timings=timings, info=info)
+        return Result(case=case, solution=sol, timings=timings, info=info, discretization=d)
 
     start = warm_start
     if start is None and opts.nested and case.mesh.refine > 0:
@@ -314,9 +346,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
         if _same_rows(start, op):  # e.g. the previous step of a sweep: its active set is the best guess
             initial_active = start.contact.active
     with timer.stage("assembly"):
-        qp = ContactQP(Ar, Fr, op.B @ red.P, op.G, op.weights,
-                       D=op.D, P=op.forces if op.D is not None else None,
-                       row_labels=_row_labels(op))
+        qp = d.qp()
     eps = opts.penalty if opts.penalty is not None else default_penalty(case)
     info["tolerance"] = opts.tolerance
     if opts.method == "penalty":
@@ -332,7 +362,8 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
                             outside=penetration_outside(space, punches, U, cs.delta),
                             between=_penetration_between(space, punches, opts.contact_points, U, cs.delta))
     sol = ShellSolution(space=space, U=U, A=A, F=F, timings=timings, extra_forces=op.B.T @ Lam)
-    return Result(case=case, solution=sol, timings=timings, info=info, contact=contact, punches=punches)
+    return Result(case=case, solution=sol, timings=timings, info=info, contact=contact, punches=punches,
+                  discretization=d)
 
 
 def _penetration_between(space: ShellSpace, punches: list[Punch], points: str, U: np.ndarray,

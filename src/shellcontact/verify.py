@@ -106,16 +106,6 @@ def _rel(a, b) -> float:
     return float(np.linalg.norm(a - b) / max(float(np.linalg.norm(b)), 1e-300))
 
 
-def _reduced_qp(result):
-    """The reduced QP of MODEL.md §8 rebuilt from a Result (same building blocks as analysis.solve)."""
-    from .solvers import ContactQP
-    from .supports import Reduction
-
-    sol, op = result.solution, result.contact.operator
-    red = Reduction.build(sol.space, result.case.supports)
-    return ContactQP(red.reduce_matrix(sol.A), red.reduce_vector(sol.F), op.B @ red.P, op.G, op.weights)
-
-
 # --------------------------------------------------------------------------------------------
 # the checks
 # --------------------------------------------------------------------------------------------
@@ -168,7 +158,7 @@ def check_coercivity(runs: _Runs) -> list[Check]:
     from .geometry import rigid_motion
 
     res = runs.get("sphere")
-    A_r = _reduced_qp(res).A
+    A_r = res.discretization.Ar
     lmin = float(spla.eigsh(A_r, k=1, sigma=0.0, which="LM", return_eigenvectors=False)[0])
     lmax = float(spla.eigsh(A_r, k=1, which="LA", return_eigenvectors=False)[0])
     sol = res.solution
@@ -229,7 +219,7 @@ def check_saddle(runs: _Runs) -> list[Check]:
     out = []
     for key in ("roller", "sphere"):
         ap, du = runs.get(key), runs.get(key, "dual")
-        qp = _reduced_qp(ap)
+        qp = ap.discretization.qp()
         U, Lam = ap.contact.solution.U, ap.contact.Lambda
         E = qp.energy(U)
         gap = abs(E - dual_value(qp, Lam)) / abs(E)
