@@ -42,23 +42,29 @@ def _mesh(n: int):
     return structured(Shell(**PANEL), n, n)
 
 
-def worker_ours(n: int, reps: int) -> dict:
+def _assemble(mesh, st: common.Stages):
+    """shellcontact's stages, timed by ``st``: space, Argyris basis, CSR pattern, matrix."""
     from shellcontact import model
     from shellcontact.spaces import ShellSpace
 
+    with st.stage("space"):
+        space = ShellSpace(mesh)
+    with st.stage("argyris basis"):
+        _ = space.argyris
+    with st.stage("pattern"):
+        model.stiffness_pattern(space)
+    with st.stage("element matrices + scatter"):
+        A = model.stiffness(space)
+    return space, A
+
+
+def worker_ours(n: int, reps: int) -> dict:
     m = _mesh(n)
     best: dict[str, float] = {}
     best_cpu: dict[str, float] = {}
     for _ in range(reps):
         st = common.Stages(trace_memory=False)
-        with st.stage("space"):
-            space = ShellSpace(m)
-        with st.stage("argyris basis"):
-            _ = space.argyris
-        with st.stage("pattern"):
-            model.stiffness_pattern(space)
-        with st.stage("element matrices + scatter"):
-            A = model.stiffness(space)
+        space, A = _assemble(m, st)
         for k, v in st.times.items():
             best[k] = min(best.get(k, float("inf")), v)
             best_cpu[k] = min(best_cpu.get(k, float("inf")), st.cpu[k])
@@ -69,14 +75,7 @@ def worker_ours(n: int, reps: int) -> dict:
     tracemalloc.start()
     base = tracemalloc.get_traced_memory()[0]
     st = common.Stages(trace_memory=True)
-    with st.stage("space"):
-        space = ShellSpace(m)
-    with st.stage("argyris basis"):
-        _ = space.argyris
-    with st.stage("pattern"):
-        model.stiffness_pattern(space)
-    with st.stage("element matrices + scatter"):
-        A = model.stiffness(space)
+    space, A = _assemble(m, st)
     peak = tracemalloc.get_traced_memory()[1] - base
     matrix_bytes = A.data.nbytes + A.indices.nbytes + A.indptr.nbytes
     return {"triangles": m.nelements, "dofs": space.ndofs, "nnz": int(A.nnz), "times": best,
