@@ -330,7 +330,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
         with timer.stage("solve"):
             U = red.expand(fac.solve(d.Fr))
         timings = timer.total()
-        sol = ShellSolution(space=space, U=U, A=A, F=F, timings=timings)
+        sol = ShellSolution(space=space, U=U, A=A, F=F)
         return Result(case=case, solution=sol, timings=timings, info=info, discretization=d)
 
     start = warm_start
@@ -361,7 +361,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
                             gap=op.gap(U, cs.delta), delta=cs.delta,
                             outside=penetration_outside(space, punches, U, cs.delta),
                             between=_penetration_between(space, punches, opts.contact_points, U, cs.delta))
-    sol = ShellSolution(space=space, U=U, A=A, F=F, timings=timings, extra_forces=op.B.T @ Lam)
+    sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam)
     return Result(case=case, solution=sol, timings=timings, info=info, contact=contact, punches=punches,
                   discretization=d)
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -20,7 +20,6 @@ class ShellSolution:
     U: np.ndarray
     A: sp.csr_matrix  # full (unreduced) stiffness
     F: np.ndarray  # full load vector
-    timings: dict[str, float] = field(default_factory=dict)
     extra_forces: np.ndarray | None = None  # e.g. contact forces Bᵀ Λ in the balance A U = F + ...
 
     @property
