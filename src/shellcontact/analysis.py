@@ -33,6 +33,7 @@ from .loads import load_vector
 from .punch import Punch, fitted_mesh, punches_from_case
 from .results import ShellSolution
 from .solvers import ContactQP, ContactSolution, solve_active_set, solve_dual, solve_penalty
+from .solvers.screening import initial_rows, solve_screened
 from .solvers.substructure import factorize_contact, substructure_enabled
 from .spaces import ShellSpace
 from .supports import Reduction
@@ -254,7 +255,7 @@ class Result:
 
 
 def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndarray | None,
-                   initial_active: np.ndarray | None, eps: float, progress=None):
+                   initial_active: np.ndarray | None, eps: float, progress=None, screen: np.ndarray | None = None):
     kw: dict[str, Any] = {"tol": opts.tolerance, "factorization": fac}
     if progress is not None:  # progress(iteration, numeric fields of the solver's record)
         kw["callback"] = lambda rec: progress(
@@ -264,11 +265,10 @@ def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndar
     if opts.method == "penalty":
         return solve_penalty(qp, epsilon=eps, continuation=list(opts.continuation) or None,
                              initial_U=initial_U_r, **kw)
-    if initial_active is None and initial_U_r is not None:
-        initial_active = qp.gap(initial_U_r) <= 0.0
-    if opts.method == "dual":
-        return solve_dual(qp, initial_active=initial_active, **kw)
-    return solve_active_set(qp, initial_active=initial_active, **kw)
+    solver = solve_dual if opts.method == "dual" else solve_active_set
+    if screen is not None and screen.size < qp.m:
+        return solve_screened(qp, screen, solver, initial_active=initial_active, **kw)
+    return solver(qp, initial_active=initial_active, **kw)
 
 
 @dataclass
@@ -321,12 +321,11 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     timer = Timer()
     d = discretize(case, opts.contact_points, timer)
     space, A, F, red, op, punches = d.space, d.A, d.F, d.reduction, d.operator, d.punches
-    with timer.stage("factorization"):  # exact contact methods: the dense Schur complement of its rows too
-        exact = op is not None and opts.method != "penalty" and substructure_enabled()
-        fac = factorize_contact(d.Ar, d.Br, opts.backend) if exact else factorize(d.Ar, opts.backend)
-    info: dict[str, Any] = {"backend": fac.backend, "unknowns": int(d.Ar.shape[0])}
-
+    info: dict[str, Any] = {"unknowns": int(d.Ar.shape[0])}
     if op is None:
+        with timer.stage("factorization"):
+            fac = factorize(d.Ar, opts.backend)
+        info["backend"] = fac.backend
         with timer.stage("solve"):
             U = red.expand(fac.solve(d.Fr))
         timings = timer.total()
@@ -347,12 +346,27 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
             initial_active = start.contact.active
     with timer.stage("assembly"):
         qp = d.qp()
+    if initial_active is None and initial_U_r is not None and opts.method != "penalty":
+        initial_active = qp.gap(initial_U_r) <= 0.0
+    # exact methods: the dense Schur complement of the rows predicted to touch (solvers.screening)
+    screen = None
+    with timer.stage("factorization"):
+        if opts.method != "penalty" and substructure_enabled():
+            screen = initial_rows(op.G, op.punch)
+            if initial_active is not None:
+                screen = np.union1d(screen, np.flatnonzero(initial_active))
+            fac = factorize_contact(d.Ar, d.Br[screen], opts.backend)
+            if fac.schur is None:
+                screen = None
+        else:
+            fac = factorize(d.Ar, opts.backend)
+    info["backend"] = fac.backend
     eps = opts.penalty if opts.penalty is not None else default_penalty(case)
     info["tolerance"] = opts.tolerance
     if opts.method == "penalty":
         info["penalty"] = eps
     with timer.stage("solve"):
-        cs = _solve_contact(qp, opts, fac, initial_U_r, initial_active, eps, progress)
+        cs = _solve_contact(qp, opts, fac, initial_U_r, initial_active, eps, progress, screen)
     U = red.expand(cs.U)
     timings = timer.total()
     info["solver_timings"] = dict(cs.timings)

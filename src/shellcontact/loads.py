@@ -117,8 +117,17 @@ def point_load_vector(space: ShellSpace, x, phi, force) -> np.ndarray:
     return sum(ops[k].T @ q[i] for i, k in enumerate("uvw"))
 
 
+def _is_zero(value) -> bool:
+    """A constant zero load (a callable is never taken for zero)."""
+    return not callable(value) and not np.any(np.asarray(value, dtype=float))
+
+
 def load_vector(space: ShellSpace, loads: Loads) -> np.ndarray:
-    F = surface_load_vector(space, loads.normal, loads.surface)
+    # no quadrature over the whole surface for an absent surface load (2.7 of 4.3 s at 281k dofs)
+    if _is_zero(loads.normal) and _is_zero(loads.surface):
+        F = np.zeros(space.ndofs)
+    else:
+        F = surface_load_vector(space, loads.normal, loads.surface)
     for line in loads.lines:
         F += _line_vector(space, line)
     if loads.points:

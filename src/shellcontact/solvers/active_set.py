@@ -37,7 +37,7 @@ from ..errors import InputError, SolverError
 from ..linalg import Factorization
 from .dual import dual_core
 from .qp import ContactQP, ContactSolution, History
-from .schur import Workspace
+from .schur import Workspace, default_growth
 
 
 def _check_common(tol: float, max_iterations: int) -> None:
@@ -69,12 +69,13 @@ def solve_active_set(
     factorization: Factorization | None = None,
     initial_U: np.ndarray | None = None,
     fallback: bool = True,
-    growth: float = 0.9,
+    growth: float | None = None,
     max_add: int | None = None,
     callback: Callable[[dict], None] | None = None,
 ) -> ContactSolution:
     """PDAS with cycle-detection fallback (module docstring). ``max_iterations`` bounds PDAS
-    iterations plus fallback iterations. ``growth`` θ ∈ [0, 1): add to the working set only the
+    iterations plus fallback iterations. ``growth`` θ ∈ [0, 1) (default ``schur.default_growth``: 0.9,
+    or 0 when the factorisation carries the dense Schur complement): add to the working set only the
     violated constraints with g_j ≤ θ·min g (θ = 0: all of them, plain PDAS); with θ > 0 far fewer
     columns of S are computed for constraints that end up inactive (the map stays deterministic,
     so the convergence argument is unchanged). ``max_add``: at most this many violated constraints
@@ -87,6 +88,7 @@ def solve_active_set(
     live = ws.live
     k = qp.k
     rhs2 = -qp.P if k else None
+    growth = default_growth(ws) if growth is None else growth
     if not (0.0 <= growth < 1.0):
         raise InputError("solver.growth", f"must lie in [0, 1), got {growth!r}")
 

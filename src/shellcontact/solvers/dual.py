@@ -42,7 +42,7 @@ import numpy as np
 from ..errors import InputError, SolverError
 from ..linalg import Factorization
 from .qp import ContactQP, ContactSolution, History
-from .schur import Workspace
+from .schur import Workspace, default_growth
 
 _NEG = 1e-13  # relative size below which a negative face-minimiser component counts as zero
 
@@ -241,12 +241,13 @@ def solve_dual(
     initial_active: np.ndarray | None = None,
     gamma: float = 1.0,
     rho: float | None = None,
-    growth: float = 0.9,
+    growth: float | None = None,
     callback: Callable[[dict], None] | None = None,
 ) -> ContactSolution:
     """Dual method (module docstring). Warm start from Λ (``initial_lambda``) or from an
     active set (``initial_active``: the face solve on it, clipped at 0). ``growth`` θ = 0 gives
-    MPRGP's full proportioning."""
+    MPRGP's full proportioning (default ``schur.default_growth``: 0.9, or 0 with the dense Schur
+    complement)."""
     from .active_set import _as_mask, _check_common
 
     _check_common(tol, max_iterations)
@@ -260,6 +261,7 @@ def solve_dual(
         if idx.size:
             x, _, _ = ws.face_solve(idx, -ws.c0[idx], None if qp.k == 0 else -qp.P)
             lam0[idx] = np.maximum(x, 0.0)
+    growth = default_growth(ws) if growth is None else growth
     if not (0.0 <= growth < 1.0):
         raise InputError("solver.growth", f"must lie in [0, 1), got {growth!r}")
     lam, delta, its = dual_core(ws, lam0, tol, max_iterations, history, gamma, rho, growth=growth)

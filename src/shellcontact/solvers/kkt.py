@@ -91,7 +91,7 @@ def evaluate(
     lscale = max(float(np.abs(qp.G).max()) if qp.m else 0.0, float(np.abs(g - qp.G).max()) if qp.m else 0.0, TINY)
     lam_scale = max(float(np.abs(Lambda).max()) if qp.m else 0.0, TINY)
     scaled = dict(res)
-    mag = abs(qp.A) @ np.abs(U) + np.abs(qp.F) + abs(qp.B).T @ np.abs(Lambda)
+    mag = qp.abs_A @ np.abs(U) + np.abs(qp.F) + abs(qp.B).T @ np.abs(Lambda)
     scaled["stationarity"] = float(np.linalg.norm(r) / max(np.linalg.norm(mag), TINY))
     scaled["penetration"] = pen / lscale
     scaled["dual_feasibility"] = dfeas / lam_scale

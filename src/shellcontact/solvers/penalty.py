@@ -112,7 +112,7 @@ def _final(ws: Workspace, eps: float, mu: np.ndarray, delta: np.ndarray | None, 
         # normwise backward error of the penalised equation AU − F − Bᵀ(ω/ε)[g]₋ = 0
         dd_mag = np.abs(qp.D) @ np.abs(delta) if qp.k else 0.0
         pen_mag = w / eps * (lam > 0) * (np.abs(qp.G) + abs(qp.B) @ np.abs(U) + dd_mag)
-        mag = abs(qp.A) @ np.abs(U) + np.abs(qp.F) + abs(qp.B).T @ (lam + pen_mag)
+        mag = qp.abs_A @ np.abs(U) + np.abs(qp.F) + abs(qp.B).T @ (lam + pen_mag)
         berr = float(np.linalg.norm(qp.A @ U - qp.F - qp.B.T @ lam) / max(np.linalg.norm(mag), TINY))
         if qp.k:
             fb = np.linalg.norm(qp.D.T @ lam + qp.P)

@@ -8,6 +8,7 @@ present only with force control (MODEL.md §5); the KKT conditions then include 
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -35,6 +36,7 @@ class ContactQP:
     P: np.ndarray | None = None
     row_labels: list[str] | None = None
     force_labels: list[str] | None = None
+    _abs_A: Any = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not sp.issparse(self.A):
@@ -46,7 +48,7 @@ class ContactQP:
         amax = abs(A).max()
         if not np.isfinite(amax):
             raise InputError("qp.A", "has non-finite entries")
-        asym = abs(A - A.T).max() if A.nnz else 0.0
+        asym = _asymmetry(A)
         if asym > 1e-10 * amax:
             raise InputError("qp.A", f"must be symmetric (max |A - Aᵀ| = {asym:.3e}, max |A| = {amax:.3e})")
         self.A = A
@@ -107,11 +109,48 @@ class ContactQP:
             e -= float(self.P @ delta)
         return e
 
+    @property
+    def abs_A(self) -> sp.csr_matrix:
+        """|A| entrywise (for backward errors), computed once."""
+        if self._abs_A is None:
+            self._abs_A = abs(self.A)
+        return self._abs_A
+
+    def restrict(self, rows: np.ndarray) -> ContactQP:
+        """The same QP with only the constraints ``rows`` (in that order); A and F are shared,
+        not copied or validated again."""
+        rows = np.asarray(rows, dtype=np.int64)
+        self.abs_A  # noqa: B018 — computed here once, shared by every restriction
+        sub = copy.copy(self)
+        sub.B = self.B[rows]
+        sub.G = self.G[rows]
+        sub.weights = self.weights[rows]
+        if self.D is not None:
+            sub.D = np.ascontiguousarray(self.D[rows])
+        if self.row_labels is not None:
+            sub.row_labels = [self.row_labels[i] for i in rows]
+        return sub
+
     def label(self, i: int) -> str:
         return self.row_labels[i] if self.row_labels is not None else f"constraint {i}"
 
     def force_label(self, j: int) -> str:
         return self.force_labels[j] if self.force_labels is not None else f"force column {j}"
+
+
+def _asymmetry(A: sp.csr_matrix) -> float:
+    """max |A − Aᵀ|; when the pattern is symmetric, by comparing A's CSR arrays with those of Aᵀ
+    (= A in CSC) directly instead of forming A − Aᵀ (2.0 of 2.3 s at 1.1M dofs)."""
+    if not A.nnz:
+        return 0.0
+    A = A.copy()
+    A.sum_duplicates()
+    A.sort_indices()
+    T = A.tocsc()
+    T.sort_indices()
+    if np.array_equal(T.indptr, A.indptr) and np.array_equal(T.indices, A.indices):
+        return float(np.abs(T.data - A.data).max())
+    return float(abs(A - A.T).max())
 
 
 def _vector(name: str, v: Any, size: int) -> np.ndarray:

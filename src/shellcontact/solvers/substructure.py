@@ -65,6 +65,9 @@ class ContactSchur:
     chol: tuple
     impl: _PardisoSchur = field(repr=False)
     seconds: float = 0.0
+    #: (rows R after the m Schur rows, S[m : m + |R|, m : m + |R|] ∪ S[:m, R]) as solved by a
+    #: ``schur.Workspace`` for a QP whose rows are [B; R]: reused when the next QP extends them
+    extra: tuple[sp.csr_matrix, np.ndarray] | None = field(default=None, repr=False)
 
     @property
     def valid(self) -> bool:
@@ -77,11 +80,7 @@ class ContactSchur:
 
     def matches(self, B: sp.spmatrix) -> bool:
         """Whether ``B`` is the matrix this Schur complement was built for (same entries)."""
-        if B.shape != self.B.shape:
-            return False
-        B = sp.csr_matrix(B)
-        d = B - self.B
-        return d.nnz == 0 or float(np.abs(d.data).max()) == 0.0
+        return same_rows(B, self.B)
 
     def columns(self, cols: np.ndarray) -> np.ndarray:
         """S[:, cols] = T⁻¹[:, cols] − ρ⁻¹ I[:, cols]  (m × len(cols))."""
@@ -91,6 +90,14 @@ class ContactSchur:
         X = sla.cho_solve(self.chol, E, check_finite=False)
         X[cols, np.arange(cols.size)] -= 1.0 / self.rho
         return X
+
+
+def same_rows(B1: sp.spmatrix, B2: sp.spmatrix) -> bool:
+    """Whether two sparse matrices have the same shape and entries."""
+    if B1.shape != B2.shape:
+        return False
+    d = sp.csr_matrix(B1) - sp.csr_matrix(B2)
+    return d.nnz == 0 or float(np.abs(d.data).max()) == 0.0
 
 
 class _PardisoSchur(_Pardiso):

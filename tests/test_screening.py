@@ -1,0 +1,87 @@
+"""solvers.screening: the Schur complement of a predicted row set, the other rows verified.
+
+Checked against the same solvers on the whole QP (same U, Λ, active set, KKT residuals ≤ 1e-10),
+with a good prediction (one round) and a deliberately wrong one (the shallowest rows: several rounds,
+the Schur columns of the added rows by solves, reused between rounds), and against dense S.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from shellcontact.errors import InputError
+from shellcontact.linalg import available_backends, factorize
+from shellcontact.solvers import kkt_residuals, solve_active_set, solve_dual
+from shellcontact.solvers.schur import Workspace
+from shellcontact.solvers.screening import initial_rows, solve_screened
+from shellcontact.solvers.substructure import factorize_contact
+from shellcontact.solvers.synthetic import beam_qp, plate_qp
+
+HAS_PARDISO = "pardiso" in available_backends()
+CASES = {
+    "plate-zone": lambda: plate_qp(N=24, indentation=0.0, load=2000.0, radius=2.0),
+    "beam-force": lambda: beam_qp(n_el=64, radius=1.0, indentation=0.0, force=50.0),
+}
+
+
+def test_initial_rows_per_group() -> None:
+    G = np.array([5.0, -1.0, 0.0, 3.0, -2.0, 7.0, -9.0, 1.0])
+    groups = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+    assert initial_rows(G, groups, fraction=0.5, min_rows=1).tolist() == [1, 2, 4, 6]
+    assert initial_rows(G, groups, fraction=0.25, min_rows=3).tolist() == [1, 2, 3, 4, 6, 7]
+    assert initial_rows(G, None, fraction=0.25, min_rows=1).tolist() == [4, 6]
+    assert initial_rows(G, groups, fraction=1.0, min_rows=1).size == 8
+    with pytest.raises(InputError, match="screening.fraction"):
+        initial_rows(G, groups, fraction=0.0)
+
+
+@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("solver", [solve_active_set, solve_dual], ids=["active-set", "dual"])
+@pytest.mark.parametrize("prediction", ["deepest", "shallowest"])
+def test_screened_equals_whole(name: str, solver, prediction: str) -> None:
+    qp = CASES[name]()
+    ref = solver(qp, factorization=factorize(qp.A))
+    order = np.argsort(qp.G, kind="stable")
+    k = max(4, qp.m // 4)
+    rows = np.sort(order[:k] if prediction == "deepest" else order[-k:])
+    fac = factorize_contact(qp.A, qp.B[rows], min_unknowns=0)
+    sol = solve_screened(qp, rows, solver, fac, tol=1e-10)
+    scr = sol.info["screening"]
+    assert scr["rows"][0] == k and scr["candidates"] == qp.m
+    if prediction == "shallowest":  # the touching rows are missing at first: more rounds, more rows
+        assert scr["rounds"] > 1 and scr["rows"][-1] > k
+    assert np.array_equal(sol.active, ref.active)
+    assert np.linalg.norm(sol.U - ref.U) <= 1e-8 * np.linalg.norm(ref.U)
+    assert np.max(np.abs(sol.Lambda - ref.Lambda)) <= 1e-8 * np.max(np.abs(ref.Lambda))
+    assert np.all(sol.Lambda[np.setdiff1d(np.arange(qp.m), rows)][~sol.active[np.setdiff1d(np.arange(qp.m), rows)]]
+                  == 0.0)
+    assert max(sol.info["scaled_residuals"].values()) <= 1e-10
+    # the reported residuals are those of the whole QP
+    res = kkt_residuals(qp, sol.U, sol.Lambda, sol.delta, fac)
+    assert res["penetration"] == pytest.approx(sol.residuals["penetration"], abs=1e-14 * np.abs(qp.G).max())
+    assert np.allclose(sol.info["gap"], qp.gap(sol.U, sol.delta))
+
+
+@pytest.mark.skipif(not HAS_PARDISO, reason="the dense Schur complement needs PARDISO")
+def test_workspace_prefix_schur_and_reuse() -> None:
+    qp = CASES["plate-zone"]()
+    B = qp.B.toarray()
+    S = B @ np.linalg.solve(qp.A.toarray(), B.T)
+    rows = np.arange(0, qp.m, 3)
+    rest = np.setdiff1d(np.arange(qp.m), rows)
+    fac = factorize_contact(qp.A, qp.B[rows], min_unknowns=0)
+    first, second = rest[: rest.size // 2], rest[rest.size // 2 :]
+    order = np.concatenate([rows, first])
+    ws = Workspace(qp.restrict(order), fac)
+    assert ws.dense_schur is not None and ws.extra.shape == (order.size, first.size)
+    solves = ws.n_solves
+    idx = np.arange(order.size)
+    assert np.max(np.abs(ws.columns(idx) - S[np.ix_(order, order)])) <= 1e-8 * np.abs(S).max()
+    # the next round extends the rows: only the new rows' columns are solved for
+    order2 = np.concatenate([order, second])
+    ws2 = Workspace(qp.restrict(order2), fac)
+    assert ws2.n_solves - 1 == second.size  # U0 = A⁻¹F is the one other solve
+    assert ws.n_solves - 1 == first.size and solves == ws.n_solves
+    idx2 = np.arange(order2.size)
+    assert np.max(np.abs(ws2.columns(idx2) - S[np.ix_(order2, order2)])) <= 1e-8 * np.abs(S).max()
