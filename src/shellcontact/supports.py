@@ -146,7 +146,7 @@ class Reduction:
     def reduce_matrix(self, A: sp.spmatrix) -> sp.csr_matrix:
         """Pᵀ A P; without periodic slaves P only selects the free dofs, so slice instead."""
         if self.P.nnz == self.free.size:
-            return _submatrix(sp.csr_matrix(A), self.free)
+            return sp.csr_matrix(A)[self.free][:, self.free]
         return (self.P.T @ A @ self.P).tocsr()
 
     def reduce_vector(self, F: np.ndarray) -> np.ndarray:
@@ -154,20 +154,6 @@ class Reduction:
 
     def expand(self, Ur: np.ndarray) -> np.ndarray:
         return self.P @ Ur
-
-
-def _submatrix(A: sp.csr_matrix, keep: np.ndarray) -> sp.csr_matrix:
-    """A[keep][:, keep] for sorted indices ``keep``: a row slice, then the kept columns renumbered
-    with one mask over the entries (SciPy's column fancy indexing took 2.2 of 2.7 s at 1.1M dofs)."""
-    R = A[keep]
-    new = np.full(A.shape[1], -1, dtype=np.int64)
-    new[keep] = np.arange(keep.size)
-    cols = new[R.indices]
-    mask = cols >= 0
-    counts = np.add.reduceat(mask, R.indptr[:-1]) if R.nnz else np.zeros(keep.size, dtype=np.int64)
-    counts[np.diff(R.indptr) == 0] = 0  # reduceat repeats the next entry for empty rows
-    indptr = np.concatenate([[0], np.cumsum(counts)])
-    return sp.csr_matrix((R.data[mask], cols[mask], indptr), shape=(keep.size, keep.size))
 
 
 RIGID_MOTIONS = (

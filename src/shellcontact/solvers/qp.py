@@ -48,7 +48,7 @@ class ContactQP:
         amax = abs(A).max()
         if not np.isfinite(amax):
             raise InputError("qp.A", "has non-finite entries")
-        asym = _asymmetry(A)
+        asym = abs(A - A.T).max() if A.nnz else 0.0
         if asym > 1e-10 * amax:
             raise InputError("qp.A", f"must be symmetric (max |A - Aᵀ| = {asym:.3e}, max |A| = {amax:.3e})")
         self.A = A
@@ -136,21 +136,6 @@ class ContactQP:
 
     def force_label(self, j: int) -> str:
         return self.force_labels[j] if self.force_labels is not None else f"force column {j}"
-
-
-def _asymmetry(A: sp.csr_matrix) -> float:
-    """max |A − Aᵀ|; when the pattern is symmetric, by comparing A's CSR arrays with those of Aᵀ
-    (= A in CSC) directly instead of forming A − Aᵀ (2.0 of 2.3 s at 1.1M dofs)."""
-    if not A.nnz:
-        return 0.0
-    A = A.copy()
-    A.sum_duplicates()
-    A.sort_indices()
-    T = A.tocsc()
-    T.sort_indices()
-    if np.array_equal(T.indptr, A.indptr) and np.array_equal(T.indices, A.indices):
-        return float(np.abs(T.data - A.data).max())
-    return float(abs(A - A.T).max())
 
 
 def _vector(name: str, v: Any, size: int) -> np.ndarray:

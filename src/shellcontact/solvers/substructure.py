@@ -92,6 +92,31 @@ class ContactSchur:
         return X
 
 
+def _bordered_upper(As: sp.csr_matrix, Bs: sp.csr_matrix, rho: float) -> sp.csr_matrix:
+    """The upper triangle of M = [[A + ρBᵀB, −ρBᵀ], [−ρB, ρI]] in CSR with sorted indices, its
+    arrays placed directly (row i of the top: triu(A + ρBᵀB) then −ρBᵀ shifted by n; at 211k
+    unknowns 0.3 s instead of 0.9 s with sp.hstack / sp.vstack)."""
+    n, m = As.shape[0], Bs.shape[0]
+    K = sp.triu(As, format="csr") + sp.triu(rho * (Bs.T @ Bs), format="csr")
+    K.sort_indices()
+    C = (-rho * Bs).T.tocsr()  # n × m
+    C.sort_indices()
+    nk, nc = np.diff(K.indptr), np.diff(C.indptr)
+    indptr = np.zeros(n + m + 1, dtype=np.int64)
+    indptr[1 : n + 1] = np.cumsum(nk + nc)
+    indptr[n + 1 :] = indptr[n] + np.arange(1, m + 1)
+    start = indptr[:n]
+    kpos = np.repeat(start - K.indptr[:-1], nk) + np.arange(K.nnz)
+    cpos = np.repeat(start + nk - C.indptr[:-1], nc) + np.arange(C.nnz)
+    nnz = int(indptr[-1])
+    data = np.empty(nnz)
+    indices = np.empty(nnz, dtype=np.int64)
+    data[kpos], indices[kpos] = K.data, K.indices
+    data[cpos], indices[cpos] = C.data, C.indices + n
+    data[indptr[n] :], indices[indptr[n] :] = rho, np.arange(n, n + m)
+    return sp.csr_matrix((data, indices, indptr), shape=(n + m, n + m))
+
+
 def same_rows(B1: sp.spmatrix, B2: sp.spmatrix) -> bool:
     """Whether two sparse matrices have the same shape and entries."""
     if B1.shape != B2.shape:
@@ -115,12 +140,7 @@ class _PardisoSchur(_Pardiso):
         self.inner: _Pardiso | None = None
         n, m = As.shape[0], Bs.shape[0]
         self.n_a, self.m = n, m
-        # upper triangle of M, built by blocks (sp.bmat of the full M and triu take 3× longer)
-        K = sp.triu(As + rho * (Bs.T @ Bs), format="csr")
-        top = sp.hstack([K, -rho * Bs.T.tocsr()], format="csr")
-        bottom = sp.hstack([sp.csr_matrix((m, n)), rho * sp.identity(m, format="csr")], format="csr")
-        U = sp.vstack([top, bottom], format="csr")
-        U.sort_indices()
+        U = _bordered_upper(As, Bs, rho)
         ip = self.iparm
         ip[0] = 1
         ip[1] = 0 if n + m < 500_000 else 2  # as linalg._Pardiso
