@@ -4,6 +4,7 @@
                                              # plus a 24 × 24 mesh (10k dofs); several minutes, ~10 GB
     python benchmarks/scale_1m.py --quick    # refine 0..1 only (18k, 72k dofs): the 1M targets stay null
     python benchmarks/scale_1m.py --levels 2 --method dual --nested
+    python benchmarks/scale_1m.py --threads 2    # both cores (what run.py / make bench do)
 
 Every size runs ``shellcontact.solve(case)`` on src/shellcontact/cases/paper_panel.toml with
 ``mesh.refine = r`` (nested uniform refinement of the graded, punch-fitted 32 × 32 mesh) in a fresh
@@ -26,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import sys
 import tempfile
@@ -201,8 +203,13 @@ def main(argv=None) -> dict:
     ap.add_argument("--nested", action="store_true", help="solver.nested = true (coarse-level start)")
     ap.add_argument("--backend", default="auto", help="solver.backend (pardiso, cholmod, superlu; default auto)")
     ap.add_argument("--extra", default="24", help="extra unrefined meshes n for the scaling table (comma list)")
+    ap.add_argument("--threads", type=int, help="MKL/OpenBLAS/OpenMP threads of the runs (default: as set, else 1); "
+                                                "the 1M goal is for the whole machine: run.py passes its cores")
     ap.add_argument("--worker", nargs="*")
     args = ap.parse_args(argv)
+    if args.threads:
+        for k in common.THREADS:
+            os.environ[k] = str(args.threads)
     if args.worker:
         n, r, m, nest, backend = args.worker
         res = worker(int(n), int(r), m, nest == "1", backend)
