@@ -595,3 +595,19 @@ def test_progress_reports_every_solver_iteration(method):
     res = solve(case_from_dict(sphere_dict()), method=method, progress=lambda it, residuals: seen.append(it))
     assert len(seen) >= res.contact.solution.iterations >= 1
     assert seen == sorted(seen)
+
+
+def test_extended_precision_option():
+    """solver.extended_precision: the same solution (to round-off of the double run), the final solves
+    refined in extended precision; a non-boolean value is an InputError naming the key."""
+    base = solve(case_from_dict(sphere_dict(refine=1)))
+    d = sphere_dict(refine=1)
+    d["solver"]["extended_precision"] = True
+    ext = solve(case_from_dict(d))
+    assert np.array_equal(ext.contact.active, base.contact.active)
+    assert rel(ext.solution.U, base.solution.U) <= 1e-8
+    assert max(ext.summary()["kkt_scaled"].values()) <= 1e-10
+    d["solver"]["extended_precision"] = "yes"
+    with pytest.raises(InputError) as e:
+        solve(case_from_dict(d))
+    assert e.value.field == "solver.extended_precision"

@@ -78,6 +78,7 @@ class SolverOptions:
     backend: str = "auto"
     nested: bool = False
     contact_points: str = "vertices"
+    extended_precision: bool = False
 
     @classmethod
     def from_case(cls, case: Case, method: str | None = None) -> SolverOptions:
@@ -111,8 +112,11 @@ class SolverOptions:
         points = d.get("contact_points", "vertices")
         if points not in CONTACT_POINTS:
             raise InputError("solver.contact_points", f"must be one of {', '.join(CONTACT_POINTS)}, got {points!r}")
+        extended = d.get("extended_precision", False)
+        if not isinstance(extended, bool):
+            raise InputError("solver.extended_precision", f"must be true or false, got {extended!r}")
         return cls(m, float(tol), None if eps is None else float(eps), tuple(float(c) for c in cont), it,
-                   backend, nested, points)
+                   backend, nested, points, extended)
 
 
 def default_penalty(case: Case) -> float:
@@ -266,6 +270,7 @@ def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndar
         return solve_penalty(qp, epsilon=eps, continuation=list(opts.continuation) or None,
                              initial_U=initial_U_r, **kw)
     solver = solve_dual if opts.method == "dual" else solve_active_set
+    kw["extended"] = opts.extended_precision
     if screen is not None and screen.size < qp.m:
         return solve_screened(qp, screen, solver, initial_active=initial_active, **kw)
     return solver(qp, initial_active=initial_active, **kw)

@@ -72,6 +72,7 @@ def solve_active_set(
     growth: float | None = None,
     max_add: int | None = None,
     callback: Callable[[dict], None] | None = None,
+    extended: bool = False,
 ) -> ContactSolution:
     """PDAS with cycle-detection fallback (module docstring). ``max_iterations`` bounds PDAS
     iterations plus fallback iterations. ``growth`` θ ∈ [0, 1) (default ``schur.default_growth``: 0.9,
@@ -82,9 +83,10 @@ def solve_active_set(
     (the deepest) join the working set per iteration (default: no cap); fewer Schur columns, more
     iterations (measured on the paper panel at 211k unknowns: 155 instead of 341 columns, 43 instead
     of 12 iterations, contact solve 6.1-6.7 s instead of 7.2-8.4 s with max_add=8; raise
-    ``max_iterations`` accordingly)."""
+    ``max_iterations`` accordingly). ``extended``: the final solves with mixed-precision
+    refinement (``schur.Workspace``)."""
     _check_common(tol, max_iterations)
-    ws = Workspace(qp, factorization)
+    ws = Workspace(qp, factorization, extended=extended)
     live = ws.live
     k = qp.k
     rhs2 = -qp.P if k else None

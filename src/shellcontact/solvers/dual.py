@@ -243,15 +243,16 @@ def solve_dual(
     rho: float | None = None,
     growth: float | None = None,
     callback: Callable[[dict], None] | None = None,
+    extended: bool = False,
 ) -> ContactSolution:
     """Dual method (module docstring). Warm start from Λ (``initial_lambda``) or from an
     active set (``initial_active``: the face solve on it, clipped at 0). ``growth`` θ = 0 gives
     MPRGP's full proportioning (default ``schur.default_growth``: 0.9, or 0 with the dense Schur
-    complement)."""
+    complement). ``extended``: the final solves with mixed-precision refinement (``schur.Workspace``)."""
     from .active_set import _as_mask, _check_common
 
     _check_common(tol, max_iterations)
-    ws = Workspace(qp, factorization)
+    ws = Workspace(qp, factorization, extended=extended)
     history: list = History(callback)
     lam0 = np.zeros(qp.m)
     if initial_lambda is not None:

@@ -41,15 +41,19 @@ class Workspace:
     """Factorisation, U0, c0 and the cache of Schur-complement columns for one QP."""
 
     def __init__(self, qp: ContactQP, factorization: Factorization | None = None,
-                 substructure: bool | None = None) -> None:
+                 substructure: bool | None = None, extended: bool = False) -> None:
         """``substructure``: use the dense Schur complement of the contact rows
         (``substructure.factorize_contact``) for the columns of S. None (default): use it when the
         factorisation carries one for the QP's first rows (all of them, or a prefix: the remaining
         rows' columns S[:, m0:] are then solved for once, in blocks, and kept with the Schur
         complement so that a QP extending those rows again (``screening``) solves only for its newest
         rows); True: also factorise that way when no factorisation is given; False: never (one sparse
-        solve per column)."""
+        solve per column). ``extended``: the final solves U = A⁻¹(F + BᵀΛ) of ``finish_exact`` with
+        mixed-precision refinement (``Factorization.solve(extended=True)``, right-hand side formed in
+        extended precision too), so that the gaps, and the face refinement of Λ on them, are not
+        limited by cond(A)·ε."""
         self.qp = qp
+        self.extended = extended
         self.t0 = time.perf_counter()
         self.timings = {"feasibility": 0.0, "factorization": 0.0, "schur": 0.0, "solve": 0.0, "dense": 0.0}
         self.n_solves = 0
@@ -102,6 +106,20 @@ class Workspace:
         x = self.fact.solve(b)
         self.timings["solve"] += time.perf_counter() - t
         self.n_solves += 1 if b.ndim == 1 else b.shape[1]
+        return x
+
+    def solve_equilibrium(self, lam: np.ndarray) -> np.ndarray:
+        """U = A⁻¹(F + BᵀΛ); with ``extended`` the right-hand side and the refinement's residuals in
+        extended precision."""
+        qp = self.qp
+        if not (self.extended and isinstance(self.fact, Factorization)):
+            return self.solve(qp.F + qp.B.T @ lam)
+        t = time.perf_counter()
+        ld = np.longdouble
+        rhs = qp.F.astype(ld) + qp.B.T.astype(ld) @ lam.astype(ld)
+        x = self.fact.solve(rhs, extended=True)
+        self.timings["solve"] += time.perf_counter() - t
+        self.n_solves += 1 + self.fact.refinements
         return x
 
     def ensure(self, idx: np.ndarray) -> None:
@@ -347,15 +365,19 @@ class Workspace:
         lam = np.maximum(lam, 0.0)
         # S from the dense Schur complement differs from the solves' S by ~1e-10 relative: one face
         # refinement on the true gaps even when converged, kept only if it stays converged
-        extra = 1 if self.extra_refinement else 0
+        # with extended-precision solves the true gaps are accurate beyond cond(A)·ε: two face
+        # refinements on them bring Λ (and the force) to that accuracy
+        extra = 2 if self.extended else (1 if self.extra_refinement else 0)
+        left = extra
         accepted = None
         for step in range(refine + 1 + extra):
-            U = self.solve(qp.F + qp.B.T @ lam)
+            U = self.solve_equilibrium(lam)
             rep = evaluate(qp, U, lam, delta, self.fact)
             self.n_solves += 1
             if rep.converged(tol):
-                if accepted is not None or extra == 0 or not np.any(lam > 0) or step == refine + extra:
+                if left == 0 or not np.any(lam > 0) or step == refine + extra:
                     break
+                left -= 1
                 accepted = (U, lam, delta, rep)
             elif accepted is not None:  # the extra step spoiled a converged point: keep that one
                 U, lam, delta, rep = accepted
