@@ -296,7 +296,8 @@ class Discretization:
         if op is None:
             raise InputError("punch", "the case has no punch: there is no contact problem")
         return ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights,
-                         D=op.D, P=op.forces if op.D is not None else None, row_labels=_row_labels(op))
+                         D=op.D, P=op.forces if op.D is not None else None, row_labels=_row_labels(op),
+                         symmetric=True)
 
 
 def discretize(case: Case, contact_points: str = "vertices", timer: Timer | None = None) -> Discretization:
