@@ -138,7 +138,7 @@ class _Pardiso:
             raise
 
     def _set_matrix(self, A: sp.csr_matrix) -> None:
-        U = sp.triu(A, format="csr")
+        U = A if _is_upper(A) else sp.triu(A, format="csr")
         U.sort_indices()
         if np.any(np.diff(U.indptr) == 0):
             raise SolverError("matrix has an empty row: singular")
@@ -185,7 +185,7 @@ class _Pardiso:
         return None if b is None else np.ascontiguousarray(x)
 
     def refactor(self, A: sp.csr_matrix) -> None:
-        U = sp.triu(A, format="csr")
+        U = A if _is_upper(A) else sp.triu(A, format="csr")
         U.sort_indices()
         if U.nnz != self.data.size or not np.array_equal(U.indptr, self.ia) or not np.array_equal(U.indices, self.ja):
             self.free()
@@ -403,7 +403,7 @@ class Factorization:
         A_new = sp.csr_matrix(A_new, dtype=float)
         if A_new.shape != self.A.shape:
             raise InputError("matrix", f"refactor needs shape {self.A.shape}, got {A_new.shape}")
-        self.scale, As = _equilibrate(A_new)
+        self.scale, As = _equilibrate(A_new, upper=self.backend == "pardiso")
         t0 = time.perf_counter()
         self.impl.refactor(As)
         self.seconds = time.perf_counter() - t0
@@ -425,7 +425,17 @@ def _norm_inf(A: sp.csr_matrix) -> float:
     return float(np.max(np.add.reduceat(np.abs(A.data), A.indptr[:-1]))) if A.nnz else 0.0
 
 
-def _equilibrate(A: sp.csr_matrix) -> tuple[np.ndarray, sp.csr_matrix]:
+def _is_upper(A: sp.csr_matrix) -> bool:
+    """Whether a CSR matrix holds no entry below the diagonal (O(n) with sorted indices)."""
+    A.sort_indices()
+    first = A.indptr[:-1]
+    rows = np.flatnonzero(np.diff(A.indptr) > 0)
+    return bool(np.all(A.indices[first[rows]] >= rows))
+
+
+def _equilibrate(A: sp.csr_matrix, upper: bool = False) -> tuple[np.ndarray, sp.csr_matrix]:
+    """scale = diag(A)^-½ and S A S, or with ``upper`` only its upper triangle (all PARDISO reads:
+    half the entries to copy and scale; 3 s of the factorisation stage at 1.1M dofs otherwise)."""
     d = A.diagonal()
     if np.any(d <= 0) or not np.all(np.isfinite(d)):
         raise SolverError(
@@ -433,7 +443,7 @@ def _equilibrate(A: sp.csr_matrix) -> tuple[np.ndarray, sp.csr_matrix]:
             f"({int(np.sum(d <= 0))} dofs with no stiffness)"
         )
     scale = 1.0 / np.sqrt(d)
-    As = A.copy()
+    As = sp.triu(A, format="csr") if upper else A.copy()
     # S A S on the CSR arrays directly (row scale by repeat of indptr, column scale by indices)
     As.data *= np.repeat(scale, np.diff(As.indptr)) * scale[As.indices]
     return scale, As
@@ -445,7 +455,7 @@ def factorize(A: sp.spmatrix, backend: str = "auto") -> Factorization:
     A = sp.csr_matrix(A, dtype=float)
     if A.shape[0] != A.shape[1]:
         raise InputError("matrix", f"must be square, got {A.shape}")
-    scale, As = _equilibrate(A)
+    scale, As = _equilibrate(A, upper=name == "pardiso")
     t0 = time.perf_counter()
     try:
         impl = _IMPL[name](As)

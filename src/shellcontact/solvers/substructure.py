@@ -93,11 +93,12 @@ class ContactSchur:
 
 
 def _bordered_upper(As: sp.csr_matrix, Bs: sp.csr_matrix, rho: float) -> sp.csr_matrix:
-    """The upper triangle of M = [[A + ρBᵀB, −ρBᵀ], [−ρB, ρI]] in CSR with sorted indices, its
+    """The upper triangle of M = [[A + ρBᵀB, −ρBᵀ], [−ρB, ρI]] (``As``: the upper triangle of the
+    equilibrated A, as ``linalg._equilibrate(A, upper=True)`` returns it) in CSR with sorted indices, its
     arrays placed directly (row i of the top: triu(A + ρBᵀB) then −ρBᵀ shifted by n; at 211k
     unknowns 0.3 s instead of 0.9 s with sp.hstack / sp.vstack)."""
     n, m = As.shape[0], Bs.shape[0]
-    K = sp.triu(As, format="csr") + sp.triu(rho * (Bs.T @ Bs), format="csr")
+    K = As + sp.triu(rho * (Bs.T @ Bs), format="csr")  # As: the upper triangle of the scaled A
     K.sort_indices()
     C = (-rho * Bs).T.tocsr()  # n × m
     C.sort_indices()
@@ -209,7 +210,7 @@ def factorize_contact(A: sp.spmatrix, B: sp.spmatrix, backend: str = "auto", max
         fac = factorize(A, name)
         fac.schur = None
         return fac
-    scale, As = _equilibrate(A)
+    scale, As = _equilibrate(A, upper=True)
     Bs = (B @ sp.diags(scale)).tocsr()
     b2 = np.asarray(Bs.multiply(Bs).sum(axis=1)).ravel()
     rho = 1.0 / float(np.mean(b2[b2 > 0])) if np.any(b2 > 0) else 1.0
