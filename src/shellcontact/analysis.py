@@ -373,16 +373,16 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
         info["penalty"] = eps
     with timer.stage("solve"):
         cs = _solve_contact(qp, opts, fac, initial_U_r, initial_active, eps, progress, screen)
-    U = red.expand(cs.U)
-    timings = timer.total()
     info["solver_timings"] = dict(cs.timings)
-    Lam = np.asarray(cs.Lambda, float)
-    contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
-                            gap=op.gap(U, cs.delta), delta=cs.delta,
-                            outside=penetration_outside(space, punches, U, cs.delta),
-                            between=_penetration_between(space, punches, opts.contact_points, U, cs.delta))
-    sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam)
-    return Result(case=case, solution=sol, timings=timings, info=info, contact=contact, punches=punches,
+    with timer.stage("postprocess"):  # the gaps everywhere, penetration checks outside the rows
+        U = red.expand(cs.U)
+        Lam = np.asarray(cs.Lambda, float)
+        contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
+                                gap=op.gap(U, cs.delta), delta=cs.delta,
+                                outside=penetration_outside(space, punches, U, cs.delta),
+                                between=_penetration_between(space, punches, opts.contact_points, U, cs.delta))
+        sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam)
+    return Result(case=case, solution=sol, timings=timer.total(), info=info, contact=contact, punches=punches,
                   discretization=d)
 
 

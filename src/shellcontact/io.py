@@ -227,8 +227,8 @@ def vertex_fields(result) -> dict[str, np.ndarray]:
     mesh = sol.space.mesh
     x, s = mesh.p
     phi = s / sol.shell.radius
-    d = sol.evaluate(x, phi, ("u", "v", "w"))
-    disp = sol.displacement(x, phi)
+    d = sol.evaluate(x, phi)  # every quantity at once: one point location for all fields below
+    disp = sol.displacement(x, phi, values=d)
     out: dict[str, np.ndarray] = {
         "x": x.copy(),
         "phi_deg": np.degrees(phi),
@@ -239,7 +239,7 @@ def vertex_fields(result) -> dict[str, np.ndarray]:
         "deformed": (sol.shell.point(x, phi) + disp).T.copy(),
         "thickness": sol.shell.t(x, phi),
     }
-    out.update({k: np.asarray(val, float) for k, val in sol.resultants(x, phi).items()})
+    out.update({k: np.asarray(val, float) for k, val in sol.resultants(x, phi, values=d).items()})
     out.update(contact_vertex_fields(result))
     return out
 

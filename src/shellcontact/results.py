@@ -32,10 +32,11 @@ class ShellSolution:
         ops = self.space.point_operators(x, self.shell.radius * np.asarray(phi, float), quantities)
         return {k: op @ self.U for k, op in ops.items()}
 
-    def displacement(self, x, phi, zeta: float = 0.0) -> np.ndarray:
-        """Global displacement (3, n) of the point Φ + ζ n (Kirchhoff kinematics, MODEL.md §5)."""
+    def displacement(self, x, phi, zeta: float = 0.0, values: dict | None = None) -> np.ndarray:
+        """Global displacement (3, n) of the point Φ + ζ n (Kirchhoff kinematics, MODEL.md §5).
+        ``values``: ``evaluate(x, phi)`` already computed at these points."""
         a = self.shell.radius
-        d = self.evaluate(x, phi, ("u", "v", "w", "w_x", "w_s"))
+        d = values if values is not None else self.evaluate(x, phi, ("u", "v", "w", "w_x", "w_s"))
         local = np.stack(
             [
                 d["u"] - zeta * d["w_x"],
@@ -45,13 +46,14 @@ class ShellSolution:
         )
         return to_global(local, np.atleast_1d(np.asarray(phi, float)))
 
-    def strains(self, x, phi) -> np.ndarray:
-        return strains(self.evaluate(x, phi), self.shell.radius)
+    def strains(self, x, phi, values: dict | None = None) -> np.ndarray:
+        return strains(values if values is not None else self.evaluate(x, phi), self.shell.radius)
 
-    def resultants(self, x, phi) -> dict[str, np.ndarray]:
-        """Stress resultants N11, N22, N12 (force/length) and M11, M22, M12 (moment/length)."""
+    def resultants(self, x, phi, values: dict | None = None) -> dict[str, np.ndarray]:
+        """Stress resultants N11, N22, N12 (force/length) and M11, M22, M12 (moment/length).
+        ``values``: ``evaluate(x, phi)`` already computed at these points."""
         x, phi = np.atleast_1d(np.asarray(x, float)), np.atleast_1d(np.asarray(phi, float))
-        r = resultants(self.shell, self.strains(x, phi), self.shell.t(x, phi))
+        r = resultants(self.shell, self.strains(x, phi, values), self.shell.t(x, phi))
         return dict(zip(RESULTANTS, r))
 
     def stresses(self, x, phi, zeta) -> dict[str, np.ndarray]:

@@ -48,7 +48,7 @@ class ContactQP:
         n = A.shape[0]
         if A.shape != (n, n) or n == 0:
             raise InputError("qp.A", f"must be square and non-empty, got shape {A.shape}")
-        amax = abs(A).max()
+        amax = float(np.abs(A.data).max()) if A.nnz else 0.0
         if not np.isfinite(amax):
             raise InputError("qp.A", "has non-finite entries")
         asym = 0.0 if self.symmetric or not A.nnz else abs(A - A.T).max()
