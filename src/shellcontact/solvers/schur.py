@@ -389,7 +389,7 @@ class Workspace:
                     residuals=rep.residuals,
                     iterations=iterations,
                 )
-            idx = np.flatnonzero(lam > 0)
+            idx = np.flatnonzero((lam > 0) | ((rep.gap < 0) & self.live))  # penetrating rows join the face
             rhs2 = None if qp.k == 0 else -(qp.D.T @ lam + qp.P)
             dx, dd, _ = self.face_solve(idx, -rep.gap[idx], rhs2)
             lam = lam.copy()
