@@ -76,13 +76,17 @@ def _time(fn):
 
 
 def run_ours(qp, method: str, tol: float):
-    from shellcontact.linalg import factorize
+    """The package's own path (as ``analysis.solve``): from 40k unknowns the substructured, screened
+    factorisation (``solvers.screening``), below it a plain one with solved Schur columns."""
     from shellcontact.solvers import solve_active_set, solve_dual
+    from shellcontact.solvers.screening import factorize_screened, solve_screened
 
     solver = solve_active_set if method == "shellcontact-active-set" else solve_dual
 
     def go():
-        fac = factorize(qp.A)
+        fac, rows = factorize_screened(qp)
+        if rows is not None and rows.size < qp.m:
+            return solve_screened(qp, rows, solver, fac, tol=tol)
         return solver(qp, tol=tol, factorization=fac)
 
     best = None

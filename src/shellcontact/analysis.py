@@ -33,8 +33,8 @@ from .loads import load_vector
 from .punch import Punch, fitted_mesh, punches_from_case
 from .results import ShellSolution
 from .solvers import ContactQP, ContactSolution, solve_active_set, solve_dual, solve_penalty
-from .solvers.screening import initial_rows, solve_screened
-from .solvers.substructure import factorize_contact, substructure_enabled
+from .solvers.screening import factorize_screened, solve_screened
+from .solvers.substructure import substructure_enabled
 from .spaces import ShellSpace
 from .supports import Reduction
 
@@ -358,12 +358,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     screen = None
     with timer.stage("factorization"):
         if opts.method != "penalty" and substructure_enabled():
-            screen = initial_rows(op.G, op.punch)
-            if initial_active is not None:
-                screen = np.union1d(screen, np.flatnonzero(initial_active))
-            fac = factorize_contact(d.Ar, d.Br[screen], opts.backend)
-            if fac.schur is None:
-                screen = None
+            fac, screen = factorize_screened(qp, op.punch, initial_active, opts.backend)
         else:
             fac = factorize(d.Ar, opts.backend)
     info["backend"] = fac.backend

@@ -42,9 +42,10 @@ from ..linalg import Factorization, _check_backend, _equilibrate, _mkl_pardiso, 
 ENV_VAR = "SHELLCONTACT_SUBSTRUCTURE"
 
 #: fewest unknowns for which ``factorize_contact`` builds the Schur complement by default: measured
-#: on the demo case (1 thread), factorisation + active-set solve, plain vs substructured: 9k unknowns
-#: 0.07 vs 0.11 s, 68k 1.38 vs 1.38-1.47 s, 211k 9.9 vs 7.7 s, 281k 32 vs 11 s
-MIN_UNKNOWNS = 100_000
+#: on the demo case (1 thread), factorisation + active-set solve through ``analysis.solve``, plain vs
+#: substructured with screening (best of 2): 26k unknowns 0.38 vs 0.40 s, 52k 1.05 vs 0.80 s,
+#: 87k 2.25 vs 1.71 s, 130k 4.67 vs 2.88 s
+MIN_UNKNOWNS = 40_000
 
 #: largest number of contact rows for the dense Schur complement (T and its Cholesky: 2 m² doubles);
 #: measured at 1.12M dofs with m = 9409: 174 s and 11.5 GB end to end, against 379 s without it
