@@ -41,9 +41,18 @@ Options beyond the common API: ``initial_U`` (active set, penalty), ``initial_la
 augmented-Lagrangian dual, a few solves with K; a wrong prediction falls back to the exact active
 set with A⁻¹ = Woodbury(K⁻¹) on the same factors (|I0| extra columns), never a second factorisation.
 
+Large problems (what ``analysis.solve`` does for the exact methods from 40k unknowns)::
+
+    from shellcontact.solvers.screening import factorize_screened, solve_screened
+    fac, rows = factorize_screened(qp)            # A bordered by the rows predicted to touch
+    sol = (solve_screened(qp, rows, solve_active_set, fac) if rows is not None
+           else solve_active_set(qp, factorization=fac))
+
+``extended=True`` (active set, dual) refines the final solves in extended precision.
+
 Modules: qp (data, feasibility check), kkt (residuals, duality gap), schur (factorisation and
-S columns), substructure (a factorisation that also yields the dense S: ``factorize_contact``,
-used by ``analysis.solve`` for the exact methods on large problems), augmented (exact solve with
+S columns), substructure (a factorisation that also yields the dense S: ``factorize_contact``),
+screening (the Schur complement of the rows predicted to touch, the others verified), augmented (exact solve with
 one factorisation of A + B_I0ᵀRB_I0 when the active set is known beforehand), penalty,
 active_set (PDAS + fallback), dual (MPRGP with exact face solves, SMALBE for force control),
 synthetic (test problems; ``python -m shellcontact.solvers.synthetic`` prints iteration counts
