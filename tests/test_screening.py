@@ -85,3 +85,26 @@ def test_workspace_prefix_schur_and_reuse() -> None:
     assert ws.n_solves - 1 == first.size and solves == ws.n_solves
     idx2 = np.arange(order2.size)
     assert np.max(np.abs(ws2.columns(idx2) - S[np.ix_(order2, order2)])) <= 1e-8 * np.abs(S).max()
+
+
+@pytest.mark.skipif(not HAS_PARDISO, reason="the substructured path needs PARDISO")
+def test_solve_takes_the_screened_path_and_agrees(monkeypatch) -> None:
+    """analysis.solve on the paper panel at 52k unknowns (above substructure.MIN_UNKNOWNS): the
+    screened, substructured path gives the active set, forces and KKT level of the plain path
+    (SHELLCONTACT_SUBSTRUCTURE=0: one sparse solve per Schur column)."""
+    from pathlib import Path
+
+    from shellcontact import load_case, solve
+
+    path = Path(__file__).resolve().parent.parent / "src" / "shellcontact" / "cases" / "paper_panel.toml"
+    case = load_case(path, ["mesh.nx=56", "mesh.nphi=56"])
+    screened = solve(case)
+    monkeypatch.setenv("SHELLCONTACT_SUBSTRUCTURE", "0")
+    plain = solve(case)
+    scr = screened.contact.solution.info["screening"]
+    assert screened.info["unknowns"] >= 40_000 and scr["rows"][0] < scr["candidates"]
+    assert "screening" not in plain.contact.solution.info
+    assert np.array_equal(screened.contact.active, plain.contact.active)
+    f_s, f_p = (r.contact.summary()[0]["force_magnitude"] for r in (screened, plain))
+    assert f_s == pytest.approx(f_p, rel=1e-8)
+    assert max(screened.summary()["kkt_scaled"].values()) <= 1e-10
