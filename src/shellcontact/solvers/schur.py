@@ -72,7 +72,7 @@ class Workspace:
         self.extra: np.ndarray | None = None
         #: one face refinement on the true gaps after convergence (finish_exact); on with the dense S
         self.extra_refinement = self.dense_schur is not None
-        self.U0 = self.solve(qp.F)
+        self.U0 = self.solve(qp.F) if np.any(qp.F) else np.zeros(qp.n)  # no load but the punch: U0 = 0
         self.BU0 = qp.B @ self.U0
         self.c0 = qp.G + self.BU0
         self.BT = qp.B.T.tocsc()
