@@ -66,8 +66,8 @@ class ContactSchur:
     chol: tuple
     impl: _PardisoSchur = field(repr=False)
     seconds: float = 0.0
-    #: (rows R after the m Schur rows, S[m : m + |R|, m : m + |R|] ∪ S[:m, R]) as solved by a
-    #: ``schur.Workspace`` for a QP whose rows are [B; R]: reused when the next QP extends them
+    #: (rows R after the m Schur rows, the block S[: m + |R|, m : m + |R|] of the QP with rows [B; R])
+    #: as a ``schur.Workspace`` solved for it: reused when the next QP's rows extend [B; R]
     extra: tuple[sp.csr_matrix, np.ndarray] | None = field(default=None, repr=False)
 
     @property
