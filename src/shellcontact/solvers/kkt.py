@@ -39,6 +39,7 @@ class KKTReport:
     gap: np.ndarray
     energy: float
     dual_value: float
+    lscale: float  # the length scale of the scaled penetration (``length_scale``)
 
     def converged(self, tol: float) -> bool:
         return all(v <= tol for v in self.scaled.values())
@@ -88,14 +89,22 @@ def evaluate(
         res["force_balance"] = float(np.linalg.norm(fb) / fscale)
     else:
         res["duality_gap"] = abs(gap_value) / max(abs(energy), TINY)
-    lscale = max(float(np.abs(qp.G).max()) if qp.m else 0.0, float(np.abs(g - qp.G).max()) if qp.m else 0.0, TINY)
+    lscale = length_scale(qp, g)
     lam_scale = max(float(np.abs(Lambda).max()) if qp.m else 0.0, TINY)
     scaled = dict(res)
     mag = qp.abs_A @ np.abs(U) + np.abs(qp.F) + abs(qp.B).T @ np.abs(Lambda)
     scaled["stationarity"] = float(np.linalg.norm(r) / max(np.linalg.norm(mag), TINY))
     scaled["penetration"] = pen / lscale
     scaled["dual_feasibility"] = dfeas / lam_scale
-    return KKTReport(residuals=res, scaled=scaled, gap=g, energy=energy, dual_value=energy - gap_value)
+    return KKTReport(residuals=res, scaled=scaled, gap=g, energy=energy, dual_value=energy - gap_value,
+                     lscale=lscale)
+
+
+def length_scale(qp: ContactQP, g: np.ndarray) -> float:
+    """max(‖G‖∞, ‖g − G‖∞): the penetration of the scaled residuals is relative to it."""
+    if not qp.m:
+        return TINY
+    return max(float(np.abs(qp.G).max()), float(np.abs(g - qp.G).max()), TINY)
 
 
 def kkt_residuals(

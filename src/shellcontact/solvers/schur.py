@@ -391,8 +391,7 @@ class Workspace:
                 )
             # rows that penetrate beyond the tolerance on the true gaps join the face (not those within
             # it: a round-off sign must not decide whether a row carries force)
-            lscale = max(float(np.abs(qp.G).max()), float(np.abs(rep.gap - qp.G).max()), TINY)
-            idx = np.flatnonzero((lam > 0) | ((rep.gap < -tol * lscale) & self.live))
+            idx = np.flatnonzero((lam > 0) | ((rep.gap < -tol * rep.lscale) & self.live))
             rhs2 = None if qp.k == 0 else -(qp.D.T @ lam + qp.P)
             dx, dd, _ = self.face_solve(idx, -rep.gap[idx], rhs2)
             lam = lam.copy()

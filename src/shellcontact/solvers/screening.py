@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import InputError, SolverError
 from ..linalg import Factorization
-from .kkt import TINY
+from .kkt import length_scale
 from .qp import ContactQP, ContactSolution
 from .substructure import factorize_contact
 
@@ -94,7 +94,6 @@ def solve_screened(
     timings: dict[str, float] = {}
     iterations = 0
     sizes = []
-    gscale = float(np.abs(qp.G).max()) if m else 0.0
     for rnd in range(1, max_rounds + 1):
         sizes.append(int(order.size))
         sub = qp.restrict(order)
@@ -106,7 +105,7 @@ def solve_screened(
         for key, val in sol.timings.items():
             timings[key] = timings.get(key, 0.0) + val
         g = qp.gap(sol.U, sol.delta)
-        lscale = max(gscale, float(np.abs(g - qp.G).max()) if m else 0.0, TINY)
+        lscale = length_scale(qp, g)
         outside = ~inside & (g < 0)
         pen_out = float(-g[outside].min()) if outside.any() else 0.0
         if pen_out <= tol * lscale:
