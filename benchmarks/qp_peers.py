@@ -85,9 +85,7 @@ def run_ours(qp, method: str, tol: float):
 
     def go():
         fac, rows = factorize_screened(qp)
-        if rows is not None and rows.size < qp.m:
-            return solve_screened(qp, rows, solver, fac, tol=tol)
-        return solver(qp, tol=tol, factorization=fac)
+        return solve_screened(qp, rows, solver, fac, tol=tol)
 
     best = None
     for _ in range(3):

@@ -270,10 +270,8 @@ def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndar
         return solve_penalty(qp, epsilon=eps, continuation=list(opts.continuation) or None,
                              initial_U=initial_U_r, **kw)
     solver = solve_dual if opts.method == "dual" else solve_active_set
-    kw["extended"] = opts.extended_precision
-    if screen is not None and screen.size < qp.m:
-        return solve_screened(qp, screen, solver, initial_active=initial_active, **kw)
-    return solver(qp, initial_active=initial_active, **kw)
+    return solve_screened(qp, screen, solver, initial_active=initial_active, extended=opts.extended_precision,
+                          **kw)
 
 
 @dataclass

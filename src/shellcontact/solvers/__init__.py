@@ -45,8 +45,7 @@ Large problems (what ``analysis.solve`` does for the exact methods from 40k unkn
 
     from shellcontact.solvers.screening import factorize_screened, solve_screened
     fac, rows = factorize_screened(qp)            # A bordered by the rows predicted to touch
-    sol = (solve_screened(qp, rows, solve_active_set, fac) if rows is not None
-           else solve_active_set(qp, factorization=fac))
+    sol = solve_screened(qp, rows, solve_active_set, fac)   # rows None: the whole QP directly
 
 ``extended=True`` (active set, dual) refines the final solves in extended precision.
 

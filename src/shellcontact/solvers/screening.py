@@ -71,7 +71,7 @@ def factorize_screened(qp: ContactQP, groups: np.ndarray | None = None, initial_
 
 def solve_screened(
     qp: ContactQP,
-    rows: np.ndarray,
+    rows: np.ndarray | None,
     solver: Callable[..., ContactSolution],
     factorization: Factorization,
     tol: float = 1e-10,
@@ -82,7 +82,11 @@ def solve_screened(
     """Solve ``qp`` by ``solver`` (``solve_active_set`` or ``solve_dual``) on a growing row set,
     starting from ``rows`` (module docstring). ``factorization`` should carry the Schur complement
     of ``qp.B[rows]`` (``factorize_contact``); ``kw`` go to the solver. The result is the solution
-    of the whole QP; ``info["screening"]`` lists the rows per round."""
+    of the whole QP; ``info["screening"]`` lists the rows per round. Without screening (``rows``
+    None, as ``factorize_screened`` returns it for a plain factorisation, or every row) this is
+    ``solver`` on the whole QP."""
+    if rows is None or np.asarray(rows).size == qp.m:
+        return solver(qp, tol=tol, factorization=factorization, initial_active=initial_active, **kw)
     t0 = time.perf_counter()
     m = qp.m
     order = np.asarray(rows, dtype=np.int64)
