@@ -355,7 +355,6 @@ def main(argv=None) -> dict:
         else:
             targets["force_digits_1M_dofs"] = common.target(None, GOALS["force_digits_1M_dofs"], None, None,
                                                             reason=rich.get("reason", ""))
-    if targets.get("force_digits_1M_dofs") and not (args.quick or finest is None or finest["dofs"] < 900_000):
         targets["force_digits_1M_dofs"]["roundoff"] = {m: rnd[m] for m in ("double", "extended", "double_vs_extended")}
     out = {"targets": targets, "runs": runs, "richardson": rich, "machine": info}
     print(json.dumps(out))
