@@ -138,8 +138,7 @@ class _Pardiso:
             raise
 
     def _set_matrix(self, A: sp.csr_matrix) -> None:
-        U = A if _is_upper(A) else sp.triu(A, format="csr")
-        U.sort_indices()
+        U = _upper(A)
         if np.any(np.diff(U.indptr) == 0):
             raise SolverError("matrix has an empty row: singular")
         self.data = np.ascontiguousarray(U.data, dtype=np.float64)
@@ -185,8 +184,7 @@ class _Pardiso:
         return None if b is None else np.ascontiguousarray(x)
 
     def refactor(self, A: sp.csr_matrix) -> None:
-        U = A if _is_upper(A) else sp.triu(A, format="csr")
-        U.sort_indices()
+        U = _upper(A)
         if U.nnz != self.data.size or not np.array_equal(U.indptr, self.ia) or not np.array_equal(U.indices, self.ja):
             self.free()
             self._set_matrix(A)
@@ -420,12 +418,16 @@ def _norm_inf(A: sp.csr_matrix) -> float:
     return float(np.max(np.add.reduceat(np.abs(A.data), A.indptr[:-1]))) if A.nnz else 0.0
 
 
-def _is_upper(A: sp.csr_matrix) -> bool:
-    """Whether a CSR matrix holds no entry below the diagonal (O(n) with sorted indices)."""
+def _upper(A: sp.csr_matrix) -> sp.csr_matrix:
+    """The upper triangle of A in CSR with sorted indices: A itself when it holds no entry below
+    the diagonal (checked in O(n) on the first entry of each row), else ``sp.triu(A)``."""
     A.sort_indices()
-    first = A.indptr[:-1]
     rows = np.flatnonzero(np.diff(A.indptr) > 0)
-    return bool(np.all(A.indices[first[rows]] >= rows))
+    if np.all(A.indices[A.indptr[rows]] >= rows):
+        return A
+    U = sp.triu(A, format="csr")
+    U.sort_indices()
+    return U
 
 
 def _equilibrate(A: sp.csr_matrix, upper: bool = False) -> tuple[np.ndarray, sp.csr_matrix]:
