@@ -410,3 +410,26 @@ def test_extended_precision_makes_the_answer_independent_of_the_factorisation(so
     plain, ext = spread(False), spread(True)
     assert ext[0] <= 1e-11 and ext[1] <= 1e-9
     assert plain[0] >= 100 * ext[0] and plain[1] >= 100 * ext[1]
+
+
+@pytest.mark.parametrize("name", ["plate-zone", "beam-zone"])
+def test_final_refinement_recovers_from_gaps_spoilt_on_the_face(name: str) -> None:
+    """finish_exact starting from multipliers 10 % too small on the active face: the active rows and
+    their inactive neighbours then penetrate beyond the tolerance (as at 1.12M dofs, where the dense
+    Schur complement's round-off leaves 164 neighbours penetrating by up to 8e-8 of the length scale).
+    The refinement must return the exact KKT point, not pull on the neighbours (which would need
+    negative multipliers; clipping them spoilt the step and the 1M solve failed)."""
+    from shellcontact.solvers.kkt import evaluate
+    from shellcontact.solvers.schur import Workspace
+
+    qp = CASES[name]()
+    fact = factorize(qp.A)
+    ref = solve_active_set(qp, factorization=fact)
+    lam = ref.Lambda * 0.9
+    rep = evaluate(qp, fact.solve(qp.F + qp.B.T @ lam), lam, None, fact)
+    penetrating = rep.gap < -TOL * rep.lscale
+    assert np.any(penetrating & ~ref.active)  # the case this test is about
+    sol = Workspace(qp, fact).finish_exact(lam, None, TOL, "test", 0, [])
+    _assert_kkt(sol)
+    assert np.array_equal(sol.active, ref.active)
+    assert _rel(sol.Lambda, ref.Lambda) <= 1e-8

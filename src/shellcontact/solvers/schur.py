@@ -390,10 +390,18 @@ class Workspace:
                     iterations=iterations,
                 )
             # rows that penetrate beyond the tolerance on the true gaps join the face (not those within
-            # it: a round-off sign must not decide whether a row carries force)
-            idx = np.flatnonzero((lam > 0) | ((rep.gap < -tol * rep.lscale) & self.live))
+            # it: a round-off sign must not decide whether a row carries force), but only while their
+            # multiplier comes out ≥ 0: a row that penetrates only because the active rows' gaps are
+            # off by round-off would pull, and clipping its pull would spoil the step for all rows
             rhs2 = None if qp.k == 0 else -(qp.D.T @ lam + qp.P)
-            dx, dd, _ = self.face_solve(idx, -rep.gap[idx], rhs2)
+            joining = (rep.gap < -tol * rep.lscale) & self.live & (lam <= 0)
+            while True:
+                idx = np.flatnonzero((lam > 0) | joining)
+                dx, dd, _ = self.face_solve(idx, -rep.gap[idx], rhs2)
+                pulling = joining[idx] & (dx < 0)
+                if not pulling.any():
+                    break
+                joining[idx[pulling]] = False
             lam = lam.copy()
             lam[idx] = np.maximum(lam[idx] + dx, 0.0)
             if dd is not None:
