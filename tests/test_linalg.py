@@ -146,3 +146,23 @@ def test_extended_refinement_reaches_the_working_precision(backend):
     assert fac.refinements >= 1 and fac.backward_error <= 1e-14
     with pytest.raises(InputError, match="one right-hand side"):
         fac.solve(np.ones((A.shape[0], 2)), extended=True)
+
+
+def test_csr_helpers_match_scipy_and_dense(monkeypatch) -> None:
+    """linalg._triu equals sp.triu, and the chunked ‖A‖∞ the dense one, also with empty rows and
+    chunks smaller than a row."""
+    import shellcontact.linalg as la
+
+    rng = np.random.default_rng(3)
+    for n in (1, 7, 60):
+        A = sp.random(n, n, density=0.3, format="csr", random_state=rng)
+        A = (A + A.T).tolil()
+        A[n - 1, :] = 0.0
+        A = A.tocsr()
+        A.eliminate_zeros()
+        U = la._triu(A)
+        assert U.nnz == sp.triu(A).nnz and abs(U - sp.triu(A)).sum() == 0.0
+        dense = float(np.abs(A.toarray()).sum(axis=1).max())
+        for chunk in (3, 1 << 22):
+            monkeypatch.setattr(la, "CHUNK", chunk)
+            assert la._norm_inf(A) == pytest.approx(dense, rel=1e-14, abs=0.0)

@@ -414,8 +414,45 @@ class Factorization:
             pass
 
 
+#: entries per chunk of the row-wise passes over large CSR matrices: a temporary of that size instead
+#: of one as large as A (at 1.1M dofs a 0.9 GB temporary costs more in first-touch page faults than
+#: the arithmetic)
+CHUNK = 1 << 22
+
+
+def _row_chunks(A: sp.csr_matrix):
+    """Row ranges [r0, r1) of A holding about CHUNK entries each."""
+    n = A.shape[0]
+    bounds = np.searchsorted(A.indptr, np.arange(0, A.nnz + CHUNK, CHUNK), side="right") - 1
+    bounds = np.unique(np.clip(bounds, 0, n))
+    bounds[-1] = n
+    if bounds[0] != 0:
+        bounds = np.concatenate([[0], bounds])
+    return zip(bounds[:-1], bounds[1:])
+
+
 def _norm_inf(A: sp.csr_matrix) -> float:
-    return float(np.max(np.add.reduceat(np.abs(A.data), A.indptr[:-1]))) if A.nnz else 0.0
+    """‖A‖∞ = max_i Σ_j |A_ij|, by chunks of rows."""
+    if not A.nnz:
+        return 0.0
+    best = 0.0
+    for r0, r1 in _row_chunks(A):
+        p0, p1 = A.indptr[r0], A.indptr[r1]
+        if p1 > p0:
+            sums = np.add.reduceat(np.abs(A.data[p0:p1]), A.indptr[r0:r1][np.diff(A.indptr[r0 : r1 + 1]) > 0] - p0)
+            best = max(best, float(sums.max()))
+    return best
+
+
+def _triu(A: sp.csr_matrix) -> sp.csr_matrix:
+    """The upper triangle of a CSR matrix from its arrays (a mask per entry; ``sp.triu`` goes through
+    COO and takes 3× as long at 1.1M dofs)."""
+    n = A.shape[0]
+    row = np.repeat(np.arange(n, dtype=A.indices.dtype), np.diff(A.indptr))
+    keep = A.indices >= row
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(row[keep], minlength=n), out=indptr[1:])
+    return sp.csr_matrix((A.data[keep], A.indices[keep], indptr), shape=A.shape)
 
 
 def _upper(A: sp.csr_matrix) -> sp.csr_matrix:
@@ -425,9 +462,7 @@ def _upper(A: sp.csr_matrix) -> sp.csr_matrix:
     rows = np.flatnonzero(np.diff(A.indptr) > 0)
     if np.all(A.indices[A.indptr[rows]] >= rows):
         return A
-    U = sp.triu(A, format="csr")
-    U.sort_indices()
-    return U
+    return _triu(A)
 
 
 def _equilibrate(A: sp.csr_matrix, upper: bool = False) -> tuple[np.ndarray, sp.csr_matrix]:
@@ -440,7 +475,7 @@ def _equilibrate(A: sp.csr_matrix, upper: bool = False) -> tuple[np.ndarray, sp.
             f"({int(np.sum(d <= 0))} dofs with no stiffness)"
         )
     scale = 1.0 / np.sqrt(d)
-    As = sp.triu(A, format="csr") if upper else A.copy()
+    As = _triu(A) if upper else A.copy()
     # S A S on the CSR arrays directly (row scale by repeat of indptr, column scale by indices)
     As.data *= np.repeat(scale, np.diff(As.indptr)) * scale[As.indices]
     return scale, As

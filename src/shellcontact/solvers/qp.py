@@ -114,9 +114,10 @@ class ContactQP:
 
     @property
     def abs_A(self) -> sp.csr_matrix:
-        """|A| entrywise (for backward errors), computed once."""
+        """|A| entrywise (for backward errors), computed once; shares A's index arrays."""
         if self._abs_A is None:
-            self._abs_A = abs(self.A)
+            A = sp.csr_matrix(self.A)
+            self._abs_A = sp.csr_matrix((np.abs(A.data), A.indices, A.indptr), shape=A.shape, copy=False)
         return self._abs_A
 
     def restrict(self, rows: np.ndarray) -> ContactQP:

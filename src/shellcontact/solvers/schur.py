@@ -217,14 +217,21 @@ class Workspace:
         return self._store[:, self._pos[idx]]
 
     def block(self, idx: np.ndarray) -> np.ndarray:
-        """S[idx][:, idx], symmetrised."""
-        return self.columns(idx)[idx]
+        """S[idx][:, idx], symmetrised (gathered directly: not through the m × |idx| columns)."""
+        idx = np.asarray(idx, dtype=np.int64)
+        self.ensure(idx)
+        return self._store[np.ix_(idx, self._pos[idx])]
 
     def Sx(self, x: np.ndarray) -> np.ndarray:
         supp = np.flatnonzero(x)
         if supp.size == 0:
             return np.zeros(self.qp.m)
-        return self.columns(supp) @ x[supp]
+        self.ensure(supp)
+        if 4 * supp.size < self._ncol:  # few columns: gather them
+            return self._store[:, self._pos[supp]] @ x[supp]
+        z = np.zeros(self._ncol)  # many: one product with every stored column, no gathered copy
+        z[self._pos[supp]] = x[supp]
+        return self._store[:, : self._ncol] @ z
 
     def known_diagonal(self) -> np.ndarray:
         """Diagonal entries S_ii of the columns computed so far."""
