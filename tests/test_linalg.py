@@ -160,9 +160,12 @@ def test_csr_helpers_match_scipy_and_dense(monkeypatch) -> None:
         A[n - 1, :] = 0.0
         A = A.tocsr()
         A.eliminate_zeros()
-        U = la._triu(A)
-        assert U.nnz == sp.triu(A).nnz and abs(U - sp.triu(A)).sum() == 0.0
+        scale = rng.uniform(0.5, 2.0, n)
+        SAS = sp.triu(sp.diags(scale) @ A @ sp.diags(scale))
         dense = float(np.abs(A.toarray()).sum(axis=1).max())
         for chunk in (3, 1 << 22):
             monkeypatch.setattr(la, "CHUNK", chunk)
+            U = la._triu(A)
+            assert U.nnz == sp.triu(A).nnz and abs(U - sp.triu(A)).sum() == 0.0
+            assert abs(la._triu(A, scale) - SAS).max() <= 1e-15 * abs(SAS).max()
             assert la._norm_inf(A) == pytest.approx(dense, rel=1e-14, abs=0.0)

@@ -95,28 +95,61 @@ class ContactSchur:
 
 def _bordered_upper(As: sp.csr_matrix, Bs: sp.csr_matrix, rho: float) -> sp.csr_matrix:
     """The upper triangle of M = [[A + ρBᵀB, −ρBᵀ], [−ρB, ρI]] (``As``: the upper triangle of the
-    equilibrated A, as ``linalg._equilibrate(A, upper=True)`` returns it) in CSR with sorted indices, its
-    arrays placed directly (row i of the top: triu(A + ρBᵀB) then −ρBᵀ shifted by n; at 211k
-    unknowns 0.3 s instead of 0.9 s with sp.hstack / sp.vstack)."""
+    equilibrated A with sorted indices, as ``linalg._equilibrate(A, upper=True)`` returns it; its data
+    receive ρBᵀB in place) in CSR with sorted indices.
+
+    B's rows touch a few dofs each (one contact point), so ρBᵀB lies inside A's pattern and is added
+    at its positions, and only the rows of those dofs get border entries: the output is As's arrays
+    copied in runs of rows with the border entries placed after them, one allocation in all (at 1.1M
+    dofs 1.2 s instead of 3.8 s with a sparse sum and whole-matrix position arrays)."""
     n, m = As.shape[0], Bs.shape[0]
-    K = As + sp.triu(rho * (Bs.T @ Bs), format="csr")  # As: the upper triangle of the scaled A
-    K.sort_indices()
-    C = (-rho * Bs).T.tocsr()  # n × m
+    K = sp.triu(rho * (Bs.T @ Bs), format="coo")
+    if not _add_inside(As, K):
+        As = As + K.tocsr()
+        As.sort_indices()
+    C = (-rho * Bs).T.tocsr()  # n × m, nonzero only in the rows of the contact dofs
     C.sort_indices()
-    nk, nc = np.diff(K.indptr), np.diff(C.indptr)
+    nk, nc = np.diff(As.indptr).astype(np.int64), np.diff(C.indptr).astype(np.int64)
     indptr = np.zeros(n + m + 1, dtype=np.int64)
-    indptr[1 : n + 1] = np.cumsum(nk + nc)
+    np.cumsum(nk + nc, out=indptr[1 : n + 1])
     indptr[n + 1 :] = indptr[n] + np.arange(1, m + 1)
-    start = indptr[:n]
-    kpos = np.repeat(start - K.indptr[:-1], nk) + np.arange(K.nnz)
-    cpos = np.repeat(start + nk - C.indptr[:-1], nc) + np.arange(C.nnz)
     nnz = int(indptr[-1])
     data = np.empty(nnz)
-    indices = np.empty(nnz, dtype=np.int64)
-    data[kpos], indices[kpos] = K.data, K.indices
+    indices = np.empty(nnz, dtype=np.int64 if n + m > np.iinfo(np.int32).max else np.int32)
+    # rows of A between two border rows keep A's layout shifted by the border entries before them
+    brows = np.flatnonzero(nc)
+    starts = np.concatenate([[0], brows + 1])
+    stops = np.concatenate([brows + 1, [n]])
+    for r0, r1 in zip(starts, stops):
+        if r1 > r0:
+            a0, a1, shift = As.indptr[r0], As.indptr[r1], indptr[r0] - As.indptr[r0]
+            data[a0 + shift : a1 + shift] = As.data[a0:a1]
+            indices[a0 + shift : a1 + shift] = As.indices[a0:a1]
+    # border entries after the A part of their row
+    crow = np.repeat(np.arange(n), nc)
+    cpos = indptr[crow] + nk[crow] + (np.arange(C.nnz) - C.indptr[crow])
     data[cpos], indices[cpos] = C.data, C.indices + n
     data[indptr[n] :], indices[indptr[n] :] = rho, np.arange(n, n + m)
-    return sp.csr_matrix((data, indices, indptr), shape=(n + m, n + m))
+    return sp.csr_matrix((data, indices, indptr), shape=(n + m, n + m), copy=False)
+
+
+def _add_inside(As: sp.csr_matrix, K: sp.coo_matrix) -> bool:
+    """As.data += K at K's positions when every entry of K lies in As's pattern (As: CSR, sorted
+    indices); False, with As unchanged, otherwise."""
+    if K.nnz == 0:
+        return True
+    rows = np.unique(K.row)
+    lens = np.diff(As.indptr)[rows].astype(np.int64)
+    pos = np.repeat(As.indptr[rows].astype(np.int64) - np.concatenate([[0], np.cumsum(lens)[:-1]]), lens)
+    pos += np.arange(pos.size)
+    n = np.int64(As.shape[1])
+    keys = np.repeat(rows.astype(np.int64), lens) * n + As.indices[pos]  # sorted: rows ascending, sorted columns
+    want = K.row.astype(np.int64) * n + K.col
+    loc = np.minimum(np.searchsorted(keys, want), keys.size - 1)
+    if keys.size == 0 or not np.array_equal(keys[loc], want):
+        return False
+    np.add.at(As.data, pos[loc], K.data)
+    return True
 
 
 def same_rows(B1: sp.spmatrix, B2: sp.spmatrix) -> bool:
