@@ -12,6 +12,7 @@ run overstates its cost, and the CPU time is the fairer figure for a ratio.
 from __future__ import annotations
 
 import json
+import math
 import os
 import platform
 import resource
@@ -163,3 +164,24 @@ def export_qp_parts(case, contact_points: str | None = None):
 def export_qp(case, contact_points: str | None = None):
     """The reduced contact QP (``shellcontact.solvers.ContactQP``) of ``case``, as ``analysis.solve`` solves it."""
     return export_qp_parts(case, contact_points)[0]
+
+
+def richardson(forces: list[float]) -> dict:
+    """Extrapolated force, observed order and digits of the finest level (needs ≥ 3 nested levels)."""
+    if len(forces) < 3:
+        return {"reason": f"needs 3 nested levels, got {len(forces)}"}
+    f0, f1, f2 = forces[-3:]
+    d1, d2 = f0 - f1, f1 - f2
+    out: dict = {"differences": [forces[i + 1] - forces[i] for i in range(len(forces) - 1)]}
+    if d2 == 0 or d1 / d2 <= 1.0:
+        out["reason"] = "the differences between levels do not decrease monotonically: no asymptotic order"
+        out["digits_vs_previous_level"] = -math.log10(abs(d2) / abs(f2)) if d2 else None
+        return out
+    p = math.log2(d1 / d2)
+    f_inf = f2 + (f2 - f1) / (2**p - 1)
+    out.update({"order": p, "extrapolated": f_inf, "error_finest": abs(f2 - f_inf) / abs(f_inf),
+                "digits": -math.log10(abs(f2 - f_inf) / abs(f_inf))})
+    if len(forces) >= 4:
+        e0, e1 = forces[-4] - forces[-3], forces[-3] - forces[-2]
+        out["order_previous_triple"] = math.log2(e0 / e1) if e1 and e0 / e1 > 0 else None
+    return out

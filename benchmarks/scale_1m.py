@@ -225,27 +225,6 @@ def fit_exponent(x, y) -> float | None:
     return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
 
 
-def richardson(forces: list[float]) -> dict:
-    """Extrapolated force, observed order and digits of the finest level (needs ≥ 3 nested levels)."""
-    if len(forces) < 3:
-        return {"reason": f"needs 3 nested levels, got {len(forces)}"}
-    f0, f1, f2 = forces[-3:]
-    d1, d2 = f0 - f1, f1 - f2
-    out: dict = {"differences": [forces[i + 1] - forces[i] for i in range(len(forces) - 1)]}
-    if d2 == 0 or d1 / d2 <= 1.0:
-        out["reason"] = "the differences between levels do not decrease monotonically: no asymptotic order"
-        out["digits_vs_previous_level"] = -math.log10(abs(d2) / abs(f2)) if d2 else None
-        return out
-    p = math.log2(d1 / d2)
-    f_inf = f2 + (f2 - f1) / (2**p - 1)
-    out.update({"order": p, "extrapolated": f_inf, "error_finest": abs(f2 - f_inf) / abs(f_inf),
-                "digits": -math.log10(abs(f2 - f_inf) / abs(f_inf))})
-    if len(forces) >= 4:
-        e0, e1 = forces[-4] - forces[-3], forces[-3] - forces[-2]
-        out["order_previous_triple"] = math.log2(e0 / e1) if e1 and e0 / e1 > 0 else None
-    return out
-
-
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="refine 0..1 only; the 1M targets stay null")
@@ -306,7 +285,7 @@ def main(argv=None) -> dict:
                          *[r["cpu"].get(s, 0.0) for s in stages]] for r in runs]))
     nested_runs = [r for r in runs if r["n"] == args.n]
     forces = [r["force"] for r in nested_runs]
-    rich = richardson(forces)
+    rich = common.richardson(forces)
     print("\ncontact force at the nested levels (punch force magnitude, N)")
     print(common.table(["refine", "dofs", "force N", "difference to previous", "largest scaled KKT"],
                        [[r["refine"], r["dofs"], f"{r['force']:.12g}",

@@ -32,6 +32,11 @@ def test_initial_rows_per_group() -> None:
     assert initial_rows(G, groups, fraction=0.25, min_rows=3).tolist() == [1, 2, 3, 4, 6, 7]
     assert initial_rows(G, None, fraction=0.25, min_rows=1).tolist() == [4, 6]
     assert initial_rows(G, groups, fraction=1.0, min_rows=1).size == 8
+    # ties with the last row taken are taken too: a uniform overlap gives G no say, so all rows
+    flat = np.full(9, -2e-4)
+    assert initial_rows(flat, None, fraction=1 / 3, min_rows=1).size == 9
+    G2 = np.array([-3.0, -2.0, -2.0, -2.0, 1.0, 4.0])
+    assert initial_rows(G2, None, fraction=1 / 3, min_rows=1).tolist() == [0, 1, 2, 3]
     with pytest.raises(InputError, match="screening.fraction"):
         initial_rows(G, groups, fraction=0.0)
 

@@ -43,7 +43,9 @@ MIN_ROWS = 64
 def initial_rows(G: np.ndarray, groups: np.ndarray | None = None, fraction: float = FRACTION,
                  min_rows: int = MIN_ROWS) -> np.ndarray:
     """Indices (sorted) of the rows predicted to touch: per group (punch) the ⌈fraction·m_k⌉ rows
-    with the smallest G, at least ``min_rows`` (or all of the group's rows)."""
+    with the smallest G, at least ``min_rows`` (or all of the group's rows), and every row whose G
+    ties with the last one taken (to 1e-9 of the group's range of |G|): G cannot tell those apart,
+    so a uniform overlap (an interference fit) selects all rows instead of an arbitrary third."""
     if not 0 < fraction <= 1:
         raise InputError("screening.fraction", f"must lie in (0, 1], got {fraction!r}")
     G = np.asarray(G, dtype=float)
@@ -52,7 +54,9 @@ def initial_rows(G: np.ndarray, groups: np.ndarray | None = None, fraction: floa
     for k in np.unique(groups):
         idx = np.flatnonzero(groups == k)
         count = min(idx.size, max(min_rows, int(np.ceil(fraction * idx.size))))
-        keep.append(idx[np.argsort(G[idx], kind="stable")[:count]])
+        order = idx[np.argsort(G[idx], kind="stable")]
+        cut = G[order[count - 1]] + 1e-9 * float(np.abs(G[idx]).max())
+        keep.append(order[G[order] <= cut])
     return np.sort(np.concatenate(keep)) if keep else np.zeros(0, dtype=np.int64)
 
 
