@@ -169,22 +169,3 @@ def test_csr_helpers_match_scipy_and_dense(monkeypatch) -> None:
             assert U.nnz == sp.triu(A).nnz and abs(U - sp.triu(A)).sum() == 0.0
             assert abs(la._triu(A, scale) - SAS).max() <= 1e-15 * abs(SAS).max()
             assert la._norm_inf(A) == pytest.approx(dense, rel=1e-14, abs=0.0)
-
-
-def test_principal_submatrix_equals_scipy_slicing(monkeypatch) -> None:
-    """linalg.principal_submatrix(A, idx) = A[idx][:, idx] (values, pattern, sorted indices), also
-    with chunks smaller than a row, all rows and no rows; unsorted idx is refused."""
-    import shellcontact.linalg as la
-
-    rng = np.random.default_rng(5)
-    for n in (1, 9, 50):
-        A = sp.random(n, n, density=0.3, format="csr", random_state=rng)
-        A = (A + A.T).tocsr()
-        for idx in (np.arange(n), np.sort(rng.choice(n, max(1, n // 2), replace=False)), np.zeros(0, int)):
-            for chunk in (3, 1 << 20):
-                monkeypatch.setattr(la, "CHUNK", chunk)
-                R, E = la.principal_submatrix(A, idx), A[idx][:, idx]
-                assert R.shape == E.shape and R.nnz == E.nnz and R.has_sorted_indices
-                assert abs(R - E).sum() == 0.0
-    with pytest.raises(ValueError, match="sorted"):
-        la.principal_submatrix(sp.identity(3, format="csr"), np.array([2, 0]))
