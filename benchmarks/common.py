@@ -77,6 +77,13 @@ def machine_line(info: dict) -> str:
     )
 
 
+def set_threads(n: int | None) -> None:
+    """MKL/OpenBLAS/OpenMP threads of this process and of the workers it starts (None: leave as set)."""
+    if n:
+        for k in THREADS:
+            os.environ[k] = str(n)
+
+
 def single_thread_env() -> dict:
     env = dict(os.environ)
     for k in THREADS:

@@ -80,9 +80,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--threads", type=int, help="MKL/OpenBLAS/OpenMP threads of the runs (default: as set, else 1)")
     ap.add_argument("--worker", nargs="*")
     args = ap.parse_args(argv)
-    if args.threads:
-        for k in common.THREADS:
-            os.environ[k] = str(args.threads)
+    common.set_threads(args.threads)
     if args.worker:
         nx, nphi, r, ext = args.worker
         res = worker(int(nx), int(nphi), int(r), ext == "1")

@@ -238,9 +238,7 @@ def main(argv=None) -> dict:
                                                 "the 1M goal is for the whole machine: run.py passes its cores")
     ap.add_argument("--worker", nargs="*")
     args = ap.parse_args(argv)
-    if args.threads:
-        for k in common.THREADS:
-            os.environ[k] = str(args.threads)
+    common.set_threads(args.threads)
     if args.worker:
         n, r, m, nest, backend, ext = args.worker
         res = worker(int(n), int(r), m, nest == "1", backend, ext == "1")
