@@ -7,7 +7,8 @@ about 4 % of the candidate rows end up active. So the exact methods work on a gr
 
 1. W = the rows predicted to touch (``initial_rows``): for each punch the fraction ``fraction``
    of its candidate rows with the smallest G (the deepest overlap of the undeformed shell), at
-   least ``min_rows`` of them; the factorisation carries the Schur complement of B_W;
+   least ``min_rows`` of them, and the rows whose G ties with the last one taken (a uniform
+   overlap ranks nothing); the factorisation carries the Schur complement of B_W;
 2. solve the QP restricted to W (active set or dual; warm-started from the previous round);
 3. evaluate g = G + BU (+ Dδ) at every row. If no row outside W penetrates by more than the
    tolerance, (U, Λ with Λ_i = 0 outside W) is a KKT point of the whole QP: the outside rows are
