@@ -450,6 +450,8 @@ def _triu(A: sp.csr_matrix, scale: np.ndarray | None = None) -> sp.csr_matrix:
     built from its arrays by chunks of rows: one allocation for the result and small reused temporaries. At 1.1M
     dofs ``sp.triu`` followed by the scaling took 3.5 s in a fresh process, almost all of it
     first-touch page faults of its whole-matrix temporaries."""
+    if not A.has_sorted_indices:  # the result keeps A's order within rows; PARDISO needs it sorted
+        A = A.sorted_indices()
     n = A.shape[0]
     kept = np.zeros(n, dtype=np.int64)
     chunks = list(_row_chunks(A))
