@@ -105,3 +105,34 @@ def test_other_backend_or_small_is_plain_factorization() -> None:
     assert Workspace(qp, fac).dense_schur is None
     assert factorize_contact(qp.A, qp.B).schur is None  # below MIN_UNKNOWNS: plain
     assert factorize_contact(qp.A, qp.B, max_rows=qp.m - 1, min_unknowns=0).schur is None
+
+
+@pytest.mark.parametrize("name", ["beam-zone", "plate-zone"])
+def test_bordered_matrix_equals_its_definition(name: str) -> None:
+    """substructure._bordered_upper = triu([[A + ρBᵀB, −ρBᵀ], [−ρB, ρI]]) built by sparse blocks, both
+    when ρBᵀB lies inside A's pattern (added in place) and when it does not (the sparse-sum fallback)."""
+    from shellcontact.linalg import _equilibrate
+    from shellcontact.solvers.substructure import _bordered_upper
+
+    qp = CASES[name]()
+    scale, As = _equilibrate(qp.A, upper=True)
+    Bs = (qp.B @ sp.diags(scale)).tocsr()
+    rho = 0.7
+
+    def reference(U: sp.csr_matrix) -> np.ndarray:
+        K = U + sp.triu(rho * (Bs.T @ Bs))
+        return sp.bmat([[K, -rho * Bs.T], [None, rho * sp.identity(qp.m)]]).toarray()
+
+    got = _bordered_upper(As.copy(), Bs, rho)
+    assert got.has_sorted_indices
+    assert np.array_equal(got.toarray(), reference(As))
+    # drop an off-diagonal entry that ρBᵀB needs from the pattern: the fallback path
+    K = sp.triu(Bs.T @ Bs).tocoo()
+    i, j = next((a, b) for a, b in zip(K.row, K.col) if a != b)
+    holed = As.tolil()
+    holed[i, j] = 0.0
+    holed = holed.tocsr()
+    holed.eliminate_zeros()
+    got = _bordered_upper(holed.copy(), Bs, rho)
+    assert got.has_sorted_indices
+    assert np.allclose(got.toarray(), reference(holed), rtol=0.0, atol=1e-15)
