@@ -445,12 +445,13 @@ def _norm_inf(A: sp.csr_matrix) -> float:
 
 
 def _triu(A: sp.csr_matrix, scale: np.ndarray | None = None) -> sp.csr_matrix:
-    """The upper triangle of a CSR matrix (times diag(scale) on both sides if given), explicit zeros
-    kept: the assembled pattern holds ~2 % of them, and dropping them broke PARDISO's supernodes (blocked
-    solves at 216k dofs 27 s → 46 s for 1221 columns). Built from the arrays by chunks of rows: one
-    allocation for the result and small reused temporaries. At 1.1M
-    dofs ``sp.triu`` followed by the scaling took 3.5 s in a fresh process, almost all of it
-    first-touch page faults of its whole-matrix temporaries."""
+    """The upper triangle of a CSR matrix (times diag(scale) on both sides if given).
+
+    Built from the arrays by chunks of rows: one allocation for the result and small reused
+    temporaries (at 1.1M dofs ``sp.triu`` followed by the scaling took 3.5 s in a fresh process,
+    almost all of it first-touch page faults of its whole-matrix temporaries). Explicit zeros are
+    kept: the assembled pattern holds ~2 % of them, and dropping them broke PARDISO's supernodes
+    (216k dofs: 1221 blocked Schur columns 27 s → 46 s)."""
     if not A.has_sorted_indices:  # the result keeps A's order within rows; PARDISO needs it sorted
         A = A.sorted_indices()
     n = A.shape[0]
