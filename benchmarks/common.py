@@ -11,6 +11,7 @@ run overstates its cost, and the CPU time is the fairer figure for a ratio.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -126,10 +127,14 @@ def emit(result: dict) -> None:
     sys.stdout.flush()
 
 
-def run_worker(script: Path, args: list[str], timeout: float = 3600.0) -> dict:
-    """Run ``script --worker args`` in a fresh interpreter and return its JSON result."""
+def run_worker(script: Path, args: list[str], timeout: float = 3600.0, threads: int | None = None) -> dict:
+    """Run ``script --worker args`` in a fresh interpreter and return its JSON result; ``threads``
+    sets the worker's MKL/OpenBLAS/OpenMP threads (default: this process's, else 1)."""
     cmd = [sys.executable, str(script), "--worker", *args]
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=single_thread_env(), timeout=timeout)
+    env = single_thread_env()
+    if threads:
+        env.update({k: str(threads) for k in THREADS})
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=timeout)
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed:\n{proc.stderr[-3000:]}")
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -171,6 +176,13 @@ def export_qp_parts(case, contact_points: str | None = None):
 def export_qp(case, contact_points: str | None = None):
     """The reduced contact QP (``shellcontact.solvers.ContactQP``) of ``case``, as ``analysis.solve`` solves it."""
     return export_qp_parts(case, contact_points)[0]
+
+
+def active_hash(active) -> str:
+    """A fingerprint of an active set (boolean mask): equal hashes, identical sets."""
+    import numpy as np
+
+    return hashlib.sha1(np.packbits(np.asarray(active, dtype=bool)).tobytes()).hexdigest()
 
 
 def richardson(forces: list[float]) -> dict:

@@ -32,7 +32,6 @@ counts, 7e-11 from the extended result), so "double vs extended" is the double r
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import math
 import os
@@ -164,7 +163,7 @@ def worker(n: int, refine: int, method: str, nested: bool, backend: str = "auto"
         "dofs": int(res.solution.space.ndofs), "unknowns": int(res.info["unknowns"]),
         "triangles": int(res.solution.space.mesh.nelements), "nnz_A": int(res.solution.A.nnz),
         "constraints": int(res.contact.operator.m), "active": int(res.contact.active.sum()),
-        "active_hash": hashlib.sha1(np.packbits(res.contact.active).tobytes()).hexdigest(), "extended": extended,
+        "active_hash": common.active_hash(res.contact.active), "extended": extended,
         "threads": os.environ.get("MKL_NUM_THREADS"),
         "iterations": int(cs.iterations), "nested_iterations": res.info.get("nested_iterations"),
         "backend": res.info.get("backend"),
@@ -179,18 +178,8 @@ def worker(n: int, refine: int, method: str, nested: bool, backend: str = "auto"
 
 def _run(n: int, r: int, args, extended: bool, threads: int | None = None) -> dict:
     """One worker run; ``threads`` overrides the thread count of this run only."""
-    saved = {k: os.environ.get(k) for k in common.THREADS}
-    if threads:
-        os.environ.update({k: str(threads) for k in common.THREADS})
-    try:
-        return common.run_worker(Path(__file__), [str(n), str(r), args.method, "1" if args.nested else "0",
-                                                  args.backend, "1" if extended else "0"], timeout=1200)
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+    return common.run_worker(Path(__file__), [str(n), str(r), args.method, "1" if args.nested else "0",
+                                              args.backend, "1" if extended else "0"], timeout=1200, threads=threads)
 
 
 def roundoff(finest: dict, args) -> dict:
