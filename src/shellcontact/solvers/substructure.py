@@ -144,9 +144,11 @@ def _add_inside(As: sp.csr_matrix, K: sp.coo_matrix) -> bool:
     pos += np.arange(pos.size)
     n = np.int64(As.shape[1])
     keys = np.repeat(rows.astype(np.int64), lens) * n + As.indices[pos]  # sorted: rows ascending, sorted columns
+    if keys.size == 0:
+        return False
     want = K.row.astype(np.int64) * n + K.col
     loc = np.minimum(np.searchsorted(keys, want), keys.size - 1)
-    if keys.size == 0 or not np.array_equal(keys[loc], want):
+    if not np.array_equal(keys[loc], want):
         return False
     np.add.at(As.data, pos[loc], K.data)
     return True
