@@ -447,34 +447,38 @@ def _norm_inf(A: sp.csr_matrix) -> float:
 def _triu(A: sp.csr_matrix, scale: np.ndarray | None = None) -> sp.csr_matrix:
     """The upper triangle of a CSR matrix (times diag(scale) on both sides if given).
 
-    Built from the arrays by chunks of rows: one allocation for the result and small reused
+    Built from the arrays by chunks of rows: one allocation for the result and chunk-sized
     temporaries (at 1.1M dofs ``sp.triu`` followed by the scaling took 3.5 s in a fresh process,
-    almost all of it first-touch page faults of its whole-matrix temporaries). Explicit zeros are
-    kept: the assembled pattern holds ~2 % of them, and dropping them broke PARDISO's supernodes
-    (216k dofs: 1221 blocked Schur columns 27 s → 46 s)."""
+    almost all of it first-touch page faults of its whole-matrix temporaries). The first pass keeps
+    each chunk's mask (1 byte per entry) for the second, which copies. Explicit zeros are kept: the
+    assembled pattern holds ~2 % of them, and dropping them broke PARDISO's supernodes (216k dofs:
+    1221 blocked Schur columns 27 s → 46 s)."""
     if not A.has_sorted_indices:  # the result keeps A's order within rows; PARDISO needs it sorted
         A = A.sorted_indices()
     n = A.shape[0]
+    ip = A.indptr
     kept = np.zeros(n, dtype=np.int64)
-    chunks = list(_row_chunks(A))
-    for r0, r1 in chunks:  # pass 1: entries kept per row
-        p0, p1 = A.indptr[r0], A.indptr[r1]
-        rows = np.repeat(np.arange(r0, r1, dtype=np.int64), np.diff(A.indptr[r0 : r1 + 1]))
-        kept[r0:r1] = np.bincount(rows[A.indices[p0:p1] >= rows] - r0, minlength=r1 - r0)
+    masks = []
+    for r0, r1 in _row_chunks(A):  # pass 1: which entries each row keeps
+        p0, p1 = ip[r0], ip[r1]
+        counts = np.diff(ip[r0 : r1 + 1])
+        rows = np.repeat(np.arange(r0, r1, dtype=A.indices.dtype), counts)
+        mask = A.indices[p0:p1] >= rows
+        full = counts > 0
+        if p1 > p0:  # entries kept per (non-empty) row: sums of the mask over the row segments
+            kept[r0:r1][full] = np.add.reduceat(mask.view(np.int8), ip[r0:r1][full] - p0, dtype=np.int64)
+        masks.append((r0, r1, mask))
     indptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(kept, out=indptr[1:])
     indices = np.empty(int(indptr[-1]), dtype=A.indices.dtype)
     data = np.empty(int(indptr[-1]), dtype=np.float64)
-    for r0, r1 in chunks:  # pass 2: the kept entries of rows r0..r1 fill indptr[r0]..indptr[r1] in order
-        p0, p1 = A.indptr[r0], A.indptr[r1]
-        rows = np.repeat(np.arange(r0, r1, dtype=np.int64), np.diff(A.indptr[r0 : r1 + 1]))
-        cols = A.indices[p0:p1]
-        keep = cols >= rows
+    for r0, r1, mask in masks:  # pass 2: the kept entries of rows r0..r1 fill indptr[r0]..indptr[r1] in order
+        p0, p1 = ip[r0], ip[r1]
         q0, q1 = indptr[r0], indptr[r1]
-        indices[q0:q1] = cols[keep]
-        vals = A.data[p0:p1][keep]
+        indices[q0:q1] = A.indices[p0:p1][mask]
+        vals = A.data[p0:p1][mask]
         if scale is not None:
-            vals *= scale[rows[keep]] * scale[indices[q0:q1]]
+            vals *= np.repeat(scale[r0:r1], kept[r0:r1]) * scale[indices[q0:q1]]
         data[q0:q1] = vals
     if indptr[-1] < np.iinfo(np.int32).max:
         indptr = indptr.astype(np.int32)
