@@ -431,6 +431,17 @@ def _row_chunks(A: sp.csr_matrix):
     return zip(bounds[:-1], bounds[1:])
 
 
+def _row_sums(values: np.ndarray, indptr: np.ndarray, dtype=None) -> np.ndarray:
+    """Per-row sums of ``values`` (the entries of rows r0..r1, ``indptr`` = A.indptr[r0 : r1 + 1]);
+    0 for empty rows (``reduceat`` alone would repeat the next entry there)."""
+    counts = np.diff(indptr)
+    out = np.zeros(counts.size, dtype=dtype or values.dtype)
+    full = counts > 0
+    if values.size:
+        out[full] = np.add.reduceat(values, indptr[:-1][full] - indptr[0], dtype=dtype)
+    return out
+
+
 def _norm_inf(A: sp.csr_matrix) -> float:
     """‖A‖∞ = max_i Σ_j |A_ij|, by chunks of rows."""
     if not A.nnz:
@@ -439,8 +450,7 @@ def _norm_inf(A: sp.csr_matrix) -> float:
     for r0, r1 in _row_chunks(A):
         p0, p1 = A.indptr[r0], A.indptr[r1]
         if p1 > p0:
-            sums = np.add.reduceat(np.abs(A.data[p0:p1]), A.indptr[r0:r1][np.diff(A.indptr[r0 : r1 + 1]) > 0] - p0)
-            best = max(best, float(sums.max()))
+            best = max(best, float(_row_sums(np.abs(A.data[p0:p1]), A.indptr[r0 : r1 + 1]).max()))
     return best
 
 
@@ -461,12 +471,9 @@ def _triu(A: sp.csr_matrix, scale: np.ndarray | None = None) -> sp.csr_matrix:
     masks = []
     for r0, r1 in _row_chunks(A):  # pass 1: which entries each row keeps
         p0, p1 = ip[r0], ip[r1]
-        counts = np.diff(ip[r0 : r1 + 1])
-        rows = np.repeat(np.arange(r0, r1, dtype=A.indices.dtype), counts)
+        rows = np.repeat(np.arange(r0, r1, dtype=A.indices.dtype), np.diff(ip[r0 : r1 + 1]))
         mask = A.indices[p0:p1] >= rows
-        full = counts > 0
-        if p1 > p0:  # entries kept per (non-empty) row: sums of the mask over the row segments
-            kept[r0:r1][full] = np.add.reduceat(mask.view(np.int8), ip[r0:r1][full] - p0, dtype=np.int64)
+        kept[r0:r1] = _row_sums(mask.view(np.int8), ip[r0 : r1 + 1], dtype=np.int64)
         masks.append((r0, r1, mask))
     indptr = np.zeros(n + 1, dtype=np.int64)
     np.cumsum(kept, out=indptr[1:])
