@@ -35,6 +35,7 @@ from shellcontact.case import case_from_dict
 from shellcontact.demo import demo_case_path
 from shellcontact.errors import InputError
 from shellcontact.geometry import rigid_motion
+from shellcontact.linalg import factorize
 from shellcontact.solvers import ContactQP, InfeasibleProblemError, dual_value, lagrangian
 from shellcontact.supports import Reduction
 
@@ -262,30 +263,64 @@ def test_flat_punch_reaction_concentrates_at_the_strip_edges():
     assert rows[3][5] < 0.25 and rows[2][5] < 0.25  # the edges carry the load
 
 
+def _regularised_dual(result, eps: float):
+    """The penalty solution with the active set I of the exact ``result``, from the dense dual on I.
+
+    With I fixed the penalty problem (MODEL.md §8) is exactly the regularised dual
+    (S_II + ε W_I⁻¹) Λ_I = h_I (S = B A⁻¹ Bᵀ, h = −(G + B A⁻¹ F), W = diag ω): an independent
+    formulation of the penalty force for every ε, pre-asymptotic range included. Returns the total
+    normal force Σ Λ_i |∇Z_i| for ε and for ε = 0 (the exact problem).
+    """
+    qp, op = result.discretization.qp(), result.contact.operator
+    I = np.flatnonzero(result.contact.active)
+    fac = factorize(qp.A)
+    BI = qp.B[I].toarray()
+    S = BI @ np.column_stack([fac.solve(b) for b in BI])
+    h = -(qp.G[I] + BI @ fac.solve(qp.F))
+    grad = np.linalg.norm(op.grad, axis=0)[I]
+    return (float(grad @ np.linalg.solve(S + eps * np.diag(1.0 / qp.weights[I]), h)),
+            float(grad @ np.linalg.solve(S, h)))
+
+
 def test_sphere_total_force_across_solvers_and_meshes():
     """The sphere's reaction concentrates at the edge of a small contact zone: compare the total
-    normal force Σ Λ_i |∇Z_i| (and the resultant) between solvers and under refinement."""
+    normal force Σ Λ_i |∇Z_i| (and the resultant) between solvers and under refinement.
+
+    The penalty force is compared with the regularised dual on the exact active set
+    (``_regularised_dual``), at the ε where its O(ε) error is 1e-4 and at ε/10. There the error is
+    at least 1e-5 of the force, while the penalty solve's round-off in the force stays below
+    1.1e-7 for every ε ≥ ε₀/100 on these meshes (measured; it grows like 1/ε, the springs'
+    stiffness amplifying the backward error of the solve), so 1 % holds with a margin of ten.
+    Comparing with the exact force at ε₀/10, as before, measured round-off on the coarse mesh
+    (O(ε) error 2e-8 there) and so depended on the machine.
+    """
     table = []
     for r in range(3):
         res = {m: solve(case_from_dict(sphere_dict(refine=r)), method=m) for m in METHODS}
         tot = {m: float(rr.contact.operator.total_normal_force(rr.contact.Lambda)[0]) for m, rr in res.items()}
         assert tot["dual"] == pytest.approx(tot["active-set"], rel=1e-8)
-        # penalty: O(ε) — ten times smaller ε, about ten times smaller force error (Theorem 2's proof)
-        d = sphere_dict(refine=r)
-        d["solver"]["penalty"] = 0.1 * res["penalty"].summary()["penalty"]
-        tight = solve(case_from_dict(d), method="penalty")
-        err = abs(tot["penalty"] - tot["active-set"]) / tot["active-set"]
-        err_tight = abs(float(tight.contact.operator.total_normal_force(tight.contact.Lambda)[0])
-                        - tot["active-set"]) / tot["active-set"]
-        assert err <= 1e-4 and err_tight <= 0.2 * err
-        c = contact(res["active-set"])
+        exact = res["active-set"]
+        eps0 = res["penalty"].summary()["penalty"]
+        # the default ε: a force error below 1e-4
+        assert abs(tot["penalty"] - tot["active-set"]) <= 1e-4 * tot["active-set"]
+        pred0, F0 = _regularised_dual(exact, eps0)
+        assert F0 == pytest.approx(tot["active-set"], rel=1e-8)
+        eps = eps0 * 1e-4 / (abs(F0 - pred0) / F0)
+        for e in (eps, 0.1 * eps):
+            d = sphere_dict(refine=r)
+            d["solver"]["penalty"] = e
+            pen = solve(case_from_dict(d), method="penalty")
+            assert np.array_equal(pen.contact.active, exact.contact.active)
+            F = float(pen.contact.operator.total_normal_force(pen.contact.Lambda)[0])
+            pred, _ = _regularised_dual(exact, e)
+            # O(ε): the error is that of the regularised dual, to 1 % (round-off ≤ 1.1e-7 of F, error ≥ 1e-5)
+            assert abs(F - pred) <= 1e-2 * abs(F0 - pred), (r, e / eps0, F, pred, F0)
+        c = contact(exact)
         # the resultant is vertical (symmetric zone) and equal to the total normal force up to the tilt of ∇Z
         assert abs(c["force"][0]) <= 1e-8 * c["force_magnitude"]
         assert abs(c["force"][1]) <= 1e-8 * c["force_magnitude"]
         assert c["force_magnitude"] <= tot["active-set"] * (1 + 1e-12)
-        table.append(
-            (r, res["active-set"].summary()["dofs"], c["active_vertices"], tot["active-set"], c["peak_pressure"])
-        )
+        table.append((r, exact.summary()["dofs"], c["active_vertices"], tot["active-set"], c["peak_pressure"]))
     print("\nsphere: refine  dofs  active  total force [N]  peak Λ/ω [Pa]")
     for t in table:
         print(f"  {t[0]}  {t[1]:6d}  {t[2]:3d}  {t[3]:.6e}  {t[4]:.4e}")
