@@ -167,9 +167,9 @@ def export_qp_parts(case, contact_points: str | None = None):
     The operator gives the punch force of a multiplier vector (``operator.total_normal_force(Lambda)``);
     ``reduction.expand`` maps U_r to the full U.
     """
-    from shellcontact.analysis import SolverOptions, discretize
+    from shellcontact.analysis import discretize
 
-    d = discretize(case, contact_points or SolverOptions.from_case(case).contact_points)
+    d = discretize(case, contact_points or case.solver.contact_points)
     return d.qp(), d.operator, d.reduction, d.space
 
 

@@ -7,11 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from shellcontact.case import build_mesh, case_from_dict
+from shellcontact.analysis import case_mesh
+from shellcontact.case import case_from_dict
 from shellcontact.contact import contact_operator, penetration_outside
 from shellcontact.errors import InputError
 from shellcontact.geometry import frame, rigid_motion
-from shellcontact.punch import fitted_lines, punches_from_case
+from shellcontact.punches import place_punches
 from shellcontact.spaces import ShellSpace
 from shellcontact.supports import Reduction
 
@@ -21,9 +22,8 @@ SHELL = {"radius": 1.0, "length": 2.0, "thickness": 0.05, "young": 1e3, "poisson
 def setup(punch: list[dict], full: bool = False, n: int = 8, points: str = "vertices", fit: bool = True):
     shell = {**SHELL, "full": True} if full else {**SHELL, "angle": [45, 135]}
     case = case_from_dict({"shell": shell, "mesh": {"nx": n, "nphi": 2 * n if full else n}, "punch": punch})
-    punches = punches_from_case(case.punches, case.shell)
-    xs, ps = fitted_lines(punches, case.shell) if fit else ([], [])
-    space = ShellSpace(build_mesh(case, extra_x=xs, extra_phi=ps))
+    punches = place_punches(case.punches, case.shell)
+    space = ShellSpace(case_mesh(case, punches if fit else ()))
     return case, punches, space, contact_operator(space, punches, points=points)
 
 

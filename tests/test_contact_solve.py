@@ -607,20 +607,21 @@ def test_clamped_panel_has_spd_stiffness_and_free_panel_rigid_motions():
         assert e @ (A @ e) <= 1e-8 * lam_ref * (e @ e)
 
 
-def test_case_file_reference_documents_every_contact_key():
-    """docs/case-file.md, section "Contact": every [[punch]] key, every shape and every [solver] key."""
+def test_case_file_reference_is_generated_from_the_schema():
+    """docs/case-file.md's key tables are the schema's own (regenerating them changes nothing), and
+    every table of the schema, every shape and every key appears in it."""
     from pathlib import Path
 
-    from shellcontact.case import SCHEMA
-    from shellcontact.punch import COMMON_KEYS, SHAPE_KEYS, SHAPES
+    from shellcontact.case import CASE, DOC_TABLES, document
+    from shellcontact.punches import SHAPES
 
     text = (Path(__file__).resolve().parents[1] / "docs" / "case-file.md").read_text()
-    section = text[text.index("## Contact: [[punch]] and [solver]") :]
-    keys = set(COMMON_KEYS) | set().union(*SHAPE_KEYS.values()) | set(SCHEMA["solver"])
-    missing = sorted(k for k in keys if f"`{k}`" not in section)
-    assert not missing, f"undocumented keys: {missing}"
-    assert all(f'`"{s}"`' in section for s in SHAPES)
-    assert "placeholder" not in section.lower() and "is documented by the contact work" not in section
+    assert document(text) == text, "docs/case-file.md is stale: run python -m shellcontact.case docs/case-file.md"
+    for name, table in DOC_TABLES.items():
+        assert f"<!-- keys: {name} -->" in text
+        assert all(f"| `{k}` |" in text for k in table.names())
+    assert set(CASE.names()) <= {n.split(".")[0] for n in DOC_TABLES} | {"supports"}
+    assert all(f"punch.{s}" in DOC_TABLES for s in SHAPES)
 
 
 @pytest.mark.parametrize("method", METHODS)

@@ -213,15 +213,15 @@ def test_contact_vertex_arrays_gather_operator_rows() -> None:
     """Row values of a real contact operator (paper's panel) gathered on the mesh vertices keep
     their sums: Σ contact_force = Σ Λ, Σ contact_force_vector = the punch resultant Σ Λ_i ∇Z_i."""
     from shellcontact import load_case
-    from shellcontact.case import build_mesh
+    from shellcontact.analysis import case_mesh
     from shellcontact.contact import contact_operator
     from shellcontact.io import contact_vertex_arrays
-    from shellcontact.punch import fitted_lines, punches_from_case
+    from shellcontact.punches import place_punches
     from shellcontact.spaces import ShellSpace
 
     case = load_case(ROOT / "examples" / "paper_panel.toml", ["mesh.nx=6", "mesh.nphi=6", "mesh.grading={ratio=1.0}"])
-    punches = punches_from_case(case.punches, case.shell)
-    space = ShellSpace(build_mesh(case, *fitted_lines(punches, case.shell)))
+    punches = place_punches(case.punches, case.shell)
+    space = ShellSpace(case_mesh(case, punches))
     op = contact_operator(space, punches)
     rng = np.random.default_rng(1)
     Lam = np.where(rng.random(op.m) < 0.3, rng.random(op.m), 0.0)

@@ -8,10 +8,11 @@ import textwrap
 import numpy as np
 import pytest
 
-from shellcontact.case import build_mesh, case_from_dict
+from shellcontact.analysis import case_mesh
+from shellcontact.case import case_from_dict
 from shellcontact.errors import InputError
 from shellcontact.geometry import Shell
-from shellcontact.punch import (
+from shellcontact.punches import (
     Cylinder,
     Ellipsoid,
     Plane,
@@ -19,10 +20,10 @@ from shellcontact.punch import (
     Torus,
     contact_surface,
     fitted_lines,
-    fitted_mesh,
     focus_lines,
+    parse_punches,
+    place_punches,
     punch_from_dict,
-    punches_from_case,
 )
 
 RNG = np.random.default_rng(7)
@@ -268,9 +269,9 @@ def test_fitted_lines_put_nodes_on_contact_lines():
         ],
     }
     case = case_from_dict(data)
-    punches = punches_from_case(case.punches, case.shell)
+    punches = place_punches(case.punches, case.shell)
     xs, phis = fitted_lines(punches, case.shell)
-    mesh = build_mesh(case, extra_x=xs, extra_phi=phis)
+    mesh = case_mesh(case, punches)
     px, pphi = mesh.p[0], mesh.p[1] / case.shell.radius
     fx, fp = focus_lines(punches)
     assert fx[1] == pytest.approx(-0.61, abs=1e-9)  # the line under the transverse bar
@@ -365,7 +366,7 @@ def test_bad_input_names_the_key(raw, field):
         radius=1.0, length=2.0, thickness=0.002, young=1e3, poisson=0.3, alpha=math.radians(45), beta=math.radians(135)
     )
     with pytest.raises(InputError) as e:
-        punches_from_case([raw], sh)
+        place_punches(parse_punches([raw]), sh)
     assert e.value.field == field, str(e.value)
 
 
@@ -392,12 +393,12 @@ def test_symmetric_configuration_gives_symmetric_zone_and_lines():
         "punch": [{"shape": "sphere", "center": [0.0, 0.0, 1.5], "radius": 0.3, "indentation": 0.005}],
     }
     case = case_from_dict(data)
-    (p,) = punches_from_case(case.punches, case.shell)
+    (p,) = place_punches(case.punches, case.shell)
     assert p.first_contact[0] == 0.0 and p.first_contact[1] == pytest.approx(math.pi / 2, abs=1e-15)
     assert p.zone.x[0] == pytest.approx(-p.zone.x[1], abs=1e-14)
     ((p0, p1),) = p.zone.phi
     assert p0 + p1 == pytest.approx(math.pi, abs=1e-14)
-    mesh = fitted_mesh(case, [p])
+    mesh = case_mesh(case, [p])
     x, s = np.sort(np.unique(mesh.p[0])), np.sort(np.unique(mesh.p[1]))
     assert np.allclose(x, -x[::-1], atol=1e-13) and np.allclose(s - math.pi / 2, (math.pi / 2 - s)[::-1], atol=1e-13)
     assert np.min(np.diff(x)) < 0.5 * np.max(np.diff(x))  # graded toward the contact point

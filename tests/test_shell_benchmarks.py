@@ -22,7 +22,7 @@ import scipy.sparse as sp
 
 import shellcontact as sc
 from shellcontact import model
-from shellcontact.case import build_mesh
+from shellcontact.analysis import case_mesh
 from shellcontact.errors import InputError
 from shellcontact.geometry import Shell, rigid_motion
 from shellcontact.linalg import factorize
@@ -136,7 +136,7 @@ def test_pinched_cylinder_full_and_eighth_agree(examples_dir):
         sc.solve(long_case)
     # ... and solved with one axial dof pinned (the loads have no axial resultant), full loads P
     t0 = time.perf_counter()
-    mesh = build_mesh(long_case)
+    mesh = case_mesh(long_case)
     space = ShellSpace(mesh)
     A = model.stiffness(space)
     loads = Loads(points=(PointLoad(0.0, 0.0, (0.0, -1.0, 0.0)), PointLoad(0.0, math.pi, (0.0, 1.0, 0.0))))

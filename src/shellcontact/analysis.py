@@ -24,21 +24,22 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import model
-from .case import Case, build_mesh
-from .contact import POINTS as CONTACT_POINTS
+from .case import Case
 from .contact import ContactOperator, contact_operator, penetration_outside
 from .errors import InputError
 from .linalg import factorize
 from .loads import load_vector
-from .punch import Punch, fitted_mesh, punches_from_case
+from .mesh import ShellMesh, build_mesh
+from .options import SolverOptions
+from .punches import Punch, fitted_lines, focus_lines, place_punches
 from .results import ShellSolution
-from .solvers import ContactQP, ContactSolution, solve_active_set, solve_dual, solve_penalty
+from .solvers import ContactQP, ContactSolution
+from .solvers.methods import METHODS
 from .solvers.screening import factorize_screened, solve_screened
 from .solvers.substructure import substructure_enabled
 from .spaces import ShellSpace
 from .supports import Reduction
 
-METHODS = ("active-set", "dual", "penalty")
 KKT_KEYS = ("stationarity", "penetration", "dual_feasibility", "complementarity", "duality_gap")
 
 
@@ -64,59 +65,6 @@ class Timer:
     def total(self) -> dict[str, float]:
         """Seconds per stage; ``output`` is 0 until the result is written (io.write_outputs adds it)."""
         return {"output": 0.0, **self.times, "total": time.perf_counter() - self._t0}
-
-
-@dataclass
-class SolverOptions:
-    """The validated ``[solver]`` table."""
-
-    method: str = "active-set"
-    tolerance: float = 1e-10
-    penalty: float | None = None  # ε; default: 1e-6 · a²/(E t), see ``default_penalty``
-    continuation: tuple[float, ...] = ()
-    max_iterations: int | None = None
-    backend: str = "auto"
-    nested: bool = False
-    contact_points: str = "vertices"
-    extended_precision: bool = False
-
-    @classmethod
-    def from_case(cls, case: Case, method: str | None = None) -> SolverOptions:
-        d = dict(case.solver)
-        if method is not None:
-            d["method"] = method
-        m = d.get("method", "active-set")
-        if m not in METHODS:
-            raise InputError("solver.method", f"must be one of {', '.join(METHODS)}, got {m!r}")
-        tol = d.get("tolerance", 1e-10)
-        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1:
-            raise InputError("solver.tolerance", f"must be a number in (0, 1), got {tol!r}")
-        eps = d.get("penalty")
-        if eps is not None and (isinstance(eps, bool) or not isinstance(eps, (int, float)) or not eps > 0):
-            raise InputError("solver.penalty", f"the penalty parameter epsilon must be a number > 0, got {eps!r}")
-        cont = d.get("continuation", [])
-        if cont is True:
-            cont = []  # filled from the final ε below
-        if not isinstance(cont, list) or any(isinstance(c, bool) or not isinstance(c, (int, float)) or c <= 0
-                                             for c in cont):
-            raise InputError("solver.continuation", f"must be a list of penalty values > 0, got {cont!r}")
-        it = d.get("max_iterations")
-        if it is not None and (isinstance(it, bool) or not isinstance(it, int) or it < 1):
-            raise InputError("solver.max_iterations", f"must be an integer >= 1, got {it!r}")
-        nested = d.get("nested", False)
-        if not isinstance(nested, bool):
-            raise InputError("solver.nested", f"must be true or false, got {nested!r}")
-        backend = d.get("backend", "auto")
-        if not isinstance(backend, str):
-            raise InputError("solver.backend", f"must be a string, got {backend!r}")
-        points = d.get("contact_points", "vertices")
-        if points not in CONTACT_POINTS:
-            raise InputError("solver.contact_points", f"must be one of {', '.join(CONTACT_POINTS)}, got {points!r}")
-        extended = d.get("extended_precision", False)
-        if not isinstance(extended, bool):
-            raise InputError("solver.extended_precision", f"must be true or false, got {extended!r}")
-        return cls(m, float(tol), None if eps is None else float(eps), tuple(float(c) for c in cont), it,
-                   backend, nested, points, extended)
 
 
 def default_penalty(case: Case) -> float:
@@ -260,18 +208,19 @@ class Result:
 
 def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndarray | None,
                    initial_active: np.ndarray | None, eps: float, progress=None, screen: np.ndarray | None = None):
+    """Run the registered method ``opts.method`` (solvers.methods) on the reduced QP."""
     kw: dict[str, Any] = {"tol": opts.tolerance, "factorization": fac}
     if progress is not None:  # progress(iteration, numeric fields of the solver's record)
         kw["callback"] = lambda rec: progress(
             int(rec.get("iteration", 0)), {k: v for k, v in rec.items() if isinstance(v, float)})
     if opts.max_iterations is not None:
         kw["max_iterations"] = opts.max_iterations
-    if opts.method == "penalty":
-        return solve_penalty(qp, epsilon=eps, continuation=list(opts.continuation) or None,
+    method = METHODS[opts.method]
+    if not method.exact:
+        return method.load()(qp, epsilon=eps, continuation=list(opts.continuation) or None,
                              initial_U=initial_U_r, **kw)
-    solver = solve_dual if opts.method == "dual" else solve_active_set
-    return solve_screened(qp, screen, solver, initial_active=initial_active, extended=opts.extended_precision,
-                          **kw)
+    return solve_screened(qp, screen, method.load(), initial_active=initial_active,
+                          extended=opts.extended_precision, **kw)
 
 
 @dataclass
@@ -298,12 +247,23 @@ class Discretization:
                          symmetric=True)
 
 
+def case_mesh(case: Case, punches: list[Punch] | tuple[()] = ()) -> ShellMesh:
+    """The mesh of a case: node lines at the loads and at the punches' fitted lines (zone edges,
+    first-contact lines), graded toward first contact when ``[mesh.grading]`` has a ratio but no focus."""
+    xs, ps = fitted_lines(punches, case.shell)
+    fx, fp = focus_lines(punches)
+    loads = case.loads
+    xs += [p.x for p in loads.points] + [ln.x for ln in loads.lines if ln.x is not None]
+    ps += [p.phi for p in loads.points] + [ln.phi for ln in loads.lines if ln.phi is not None]
+    return build_mesh(case.shell, case.mesh, xs, ps, fx, fp)
+
+
 def discretize(case: Case, contact_points: str = "vertices", timer: Timer | None = None) -> Discretization:
     """Mesh (fitted to the punches), space, assembly, supports and contact operator of ``case``."""
     timer = timer or Timer()
     with timer.stage("mesh"):
-        punches = punches_from_case(case.punches, case.shell)
-        space = ShellSpace(fitted_mesh(case, punches) if punches else build_mesh(case))
+        punches = place_punches(case.punches, case.shell)
+        space = ShellSpace(case_mesh(case, punches))
     with timer.stage("assembly"):
         A = model.stiffness(space)
         F = load_vector(space, case.loads)
@@ -319,7 +279,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
 
     ``progress(iteration, residuals)`` is called after every contact-solver iteration.
     """
-    opts = SolverOptions.from_case(case, method)
+    opts = case.solver.with_method(method)
     if backend is not None:
         opts = dataclasses.replace(opts, backend=backend)
     timer = Timer()
@@ -350,19 +310,20 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
             initial_active = start.contact.active
     with timer.stage("assembly"):
         qp = d.qp()
-    if initial_active is None and initial_U_r is not None and opts.method != "penalty":
+    exact = METHODS[opts.method].exact
+    if initial_active is None and initial_U_r is not None and exact:
         initial_active = qp.gap(initial_U_r) <= 0.0
     # exact methods: the dense Schur complement of the rows predicted to touch (solvers.screening)
     screen = None
     with timer.stage("factorization"):
-        if opts.method != "penalty" and substructure_enabled():
+        if exact and substructure_enabled():
             fac, screen = factorize_screened(qp, op.punch, initial_active, opts.backend)
         else:
             fac = factorize(d.Ar, opts.backend)
     info["backend"] = fac.backend
     eps = opts.penalty if opts.penalty is not None else default_penalty(case)
     info["tolerance"] = opts.tolerance
-    if opts.method == "penalty":
+    if not exact:
         info["penalty"] = eps
     with timer.stage("solve"):
         cs = _solve_contact(qp, opts, fac, initial_U_r, initial_active, eps, progress, screen)

@@ -1,15 +1,16 @@
-"""Case files (TOML): parsing and validation into plain dataclasses.
+"""Case files (TOML): the declarative schema of every table, and parsing into a validated ``Case``.
 
-Every error names the key (``section.key``) and what is allowed. Angles are in degrees in
-case files and in radians everywhere inside the package. The reference of every key is
-docs/case-file.md.
+Every key is declared once below (``schema.Key``: kind, unit, default, range, meaning); parsing,
+the error messages (``InputError`` naming ``section.key`` and what is allowed), the "did you mean"
+hints and the key tables of docs/case-file.md all come from these declarations. Angles are in
+degrees in case files and in radians everywhere inside the package. Below this module nothing sees
+a raw dictionary or a key name: the ``Case`` holds typed, frozen objects (``Shell``, ``Supports``,
+``MeshSpec``, ``Loads``, ``SolverOptions``, ``PunchSpec``).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import difflib
-import importlib
 import math
 import tomllib
 from collections.abc import Iterable
@@ -17,97 +18,139 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .errors import InputError
 from .geometry import Shell
 from .loads import LineLoad, Loads, PointLoad
-from .mesh import PATTERNS, ShellMesh, from_file, graded_nodes, structured
-from .supports import Supports
+from .mesh import PATTERNS, MeshSpec
+from .options import SolverOptions
+from .punches import PUNCH, SHAPES, ZONE, PunchSpec, parse_punches
+from .schema import Key, Table, check_unknown
+from .solvers.methods import METHODS
+from .supports import SUPPORTS, Supports
 
-SCHEMA: dict[str, set[str]] = {
-    "shell": {"radius", "length", "angle", "full", "thickness", "young", "poisson", "x_start"},
-    "supports": {"x_min", "x_max", "phi_min", "phi_max"},
-    "mesh": {"nx", "nphi", "refine", "pattern", "file", "grading", "x_lines", "phi_lines"},
-    "loads": {"normal", "surface", "point", "line"},
-    "probes": {"x", "phi"},
-    "solver": {"method", "tolerance", "penalty", "max_iterations", "backend", "continuation", "nested",
-               "contact_points", "extended_precision"},
-    "punch": set(),  # validated by the contact layer
+_NUMBER_OR_FUNCTION = "string `\"module:function\"`: a function t(x, phi) (NumPy, φ in radians)"
+
+SHELL = Table("shell", (
+    Key("radius", "number", "radius a of the middle surface", unit="length", lo=0.0, open=("lo",)),
+    Key("length", "number", "axial length (2H in MODEL.md)", unit="length", lo=0.0, open=("lo",)),
+    Key("x_start", "number", "axial coordinate of the edge `x_min`; the default centres the shell on x = 0",
+        unit="length", default=None, default_doc="−length/2"),
+    Key("angle", "pair", "angular range [α, β] of a panel", angle=True, lo=-720.0, hi=720.0, default=None,
+        default_doc="required unless `full`", allowed="α < β, β − α ≤ 360, both in [−720, 720]"),
+    Key("full", "bool", "full cylinder: φ ∈ [0°, 360°] with the φ-edges identified; do not give `angle` as well",
+        default=False),
+    Key("thickness", "number_or_function", "thickness t = 2e; a function is sampled on a 9 × 9 grid at load "
+        "time", unit="length", lo=0.0, open=("lo",), allowed="0 < t < radius, or " + _NUMBER_OR_FUNCTION),
+    Key("young", "number", "Young's modulus E", unit="force/length²", lo=0.0, open=("lo",)),
+    Key("poisson", "number", "Poisson's ratio μ", lo=-1.0, hi=0.5, open=("lo", "hi")),
+))
+
+SUPPORTS_TABLE = Table("supports", tuple(
+    Key(edge, "choice", f"condition on the edge {where}", choices=SUPPORTS, default="clamped",
+        default_doc=default)
+    for edge, where, default in (
+        ("x_min", "x = x_start", '`"clamped"`'),
+        ("x_max", "x = x_start + length", '`"clamped"`'),
+        ("phi_min", "φ = α", '`"clamped"` (a panel), `"periodic"` (`full = true`)'),
+        ("phi_max", "φ = β", '`"clamped"` (a panel), `"periodic"` (`full = true`)'),
+    )
+))
+
+GRADING = Table("grading", (
+    Key("x", "numbers", "focus points along x", unit="length", default=()),
+    Key("phi", "numbers", "focus points along φ", angle=True, default=()),
+    Key("ratio", "number", "largest / smallest interval next to a focus point (1: uniform)", lo=1.0, default=1.0),
+))
+
+MESH = Table("mesh", (
+    Key("nx", "integer", "number of intervals along x (about; see grading)", lo=1, default=16),
+    Key("nphi", "integer", "number of intervals along φ (≥ 3 for a full cylinder)", lo=1, default=16),
+    Key("refine", "integer", "nested uniform (red) refinements applied after building the mesh", lo=0, default=0),
+    Key("pattern", "choice", "diagonal pattern of each cell: alternating, all one way, all the other way, or four "
+        "triangles around the cell centre", choices=PATTERNS, default="alternate"),
+    Key("grading", "table", "grading toward points (`x`, `phi`, `ratio`); focus points become node lines",
+        table=GRADING, default=None),
+    Key("x_lines", "numbers", "x values that must be node lines", unit="length", default=(),
+        allowed="inside [x_min, x_max]"),
+    Key("phi_lines", "numbers", "φ values that must be node lines", angle=True, default=(), allowed="inside [α, β]"),
+    Key("file", "string", "unstructured triangulation in coordinates (x, s), s = radius·φ (φ in radians), "
+        "readable by meshio; relative to the case file. `nx`, `nphi`, grading and node lines are then ignored",
+        default=None),
+))
+
+POINT_LOAD = Table("point", (
+    Key("x", "number", "axial position", unit="length", allowed="in [x_min, x_max]"),
+    Key("phi", "number", "angular position", angle=True, allowed="in [α, β]"),
+    Key("force", "vector", "global force vector", unit="force"),
+))
+
+LINE_LOAD = Table("line", (
+    Key("x", "number", "the line x = value (runs around the circumference)", unit="length", default=None),
+    Key("phi", "number", "the line φ = value (runs along the axis)", angle=True, default=None),
+    Key("force", "vector_or_function", "global force per unit length", unit="force/length",
+        default=(0.0, 0.0, 0.0)),
+    Key("normal", "number_or_function", "force per unit length along the outward normal", unit="force/length",
+        default=0.0),
+))
+
+LOADS = Table("loads", (
+    Key("normal", "number_or_function", "pressure along the outward normal n; internal pressure is positive",
+        unit="force/length²", default=0.0),
+    Key("surface", "vector_or_function", "global surface force per unit area of the middle surface, e.g. "
+        "self-weight `[0, 0, −g ρ t]`", unit="force/length²", default=(0.0, 0.0, 0.0)),
+    Key("point", "tables", "`[[loads.point]]`, below", table=POINT_LOAD, default=()),
+    Key("line", "tables", "`[[loads.line]]`, below", table=LINE_LOAD, default=()),
+))
+
+PROBE = Table("probes", (
+    Key("x", "number", "axial position", unit="length", allowed="in [x_min, x_max]"),
+    Key("phi", "number", "angular position", angle=True, allowed="in [α, β]"),
+))
+
+SOLVER = Table("solver", (
+    Key("method", "choice", "exact primal (primal–dual active set), the dual QP (7.9) (MPRGP), or the penalty method "
+        "(6.7); `--method` overrides", choices=tuple(METHODS), default=SolverOptions.method),
+    Key("tolerance", "number", "every scaled KKT residual must fall below it (penalty: the backward error of the "
+        "penalised equation)", lo=0.0, hi=1.0, open=("lo", "hi"), default=SolverOptions.tolerance),
+    Key("penalty", "number", "ε of the penalty method: springs of stiffness 1/ε per unit area; the penetration is "
+        "ε × pressure. Used only by `\"penalty\"`", unit="length/pressure", lo=0.0, open=("lo",), default=None,
+        default_doc="1e-6 · a²/(E t)"),
+    Key("continuation", "numbers", "penalty values solved first, in order, each warm-starting the next, before "
+        "`penalty`", unit="length/pressure", lo=0.0, open=("lo",), default=()),
+    Key("max_iterations", "integer", "iteration limit; the solver then fails with its residuals", lo=1, default=None,
+        default_doc="active-set 100, dual 500, penalty 50 per ε"),
+    Key("nested", "bool", "solve on `mesh.refine − 1` first (recursively) and start from that solution",
+        default=False),
+    Key("backend", "choice", "sparse factorisation, shared by all solves (`shellcontact info` lists those "
+        "installed)", choices=("auto", "pardiso", "cholmod", "superlu"), default=SolverOptions.backend),
+    Key("extended_precision", "bool", "refine the final solves U = A⁻¹(F + BᵀΛ) with residuals in extended "
+        "precision (`numpy.longdouble`), then refine Λ on those gaps: the force is then not limited by cond(A)·ε "
+        "(exact methods; costs a few solves; [solvers.md](solvers.md#accuracy-extended-precision-refinement))",
+        default=False),
+    Key("contact_points", "choice", "where Π ≥ 0 is imposed: at the mesh vertices of the zone (MODEL.md (8.6)), or "
+        "also at the edge midpoints of the zone's triangles (weights from P1 on the red-refined triangles: \\|T\\|/12 "
+        "per vertex, \\|T\\|/4 per midpoint)", choices=("vertices", "vertices+midpoints"),
+        default=SolverOptions.contact_points),
+))
+
+#: the case file's top-level tables; ``[shell]`` is required
+CASE = Table("", (
+    Key("shell", "table", "geometry and material", table=SHELL),
+    Key("supports", "table", "edge conditions", table=SUPPORTS_TABLE, default=None),
+    Key("mesh", "table", "the triangulation", table=MESH, default=None),
+    Key("loads", "table", "applied loads", table=LOADS, default=None),
+    Key("probes", "tables", "points reported in the summary", table=PROBE, default=()),
+    Key("solver", "table", "solver options", table=SOLVER, default=None),
+    Key("punch", "tables", "rigid punches", table=PUNCH, default=()),
+))
+
+#: the tables of docs/case-file.md, by the name of their marker
+DOC_TABLES: dict[str, Table] = {
+    "shell": SHELL, "supports": SUPPORTS_TABLE, "mesh": MESH, "mesh.grading": GRADING, "loads": LOADS,
+    "loads.point": POINT_LOAD, "loads.line": LINE_LOAD, "probes": PROBE, "solver": SOLVER, "punch": PUNCH,
+    "punch.zone": ZONE,
+    **{f"punch.{name}": Table(f"punch.{name}", shape.keys, shape.doc) for name, shape in SHAPES.items()},
 }
-REQUIRED = ("shell",)
-
-
-def _unknown(section: str, keys, allowed) -> None:
-    for k in keys:
-        if k not in allowed:
-            near = difflib.get_close_matches(k, sorted(allowed), n=1)
-            hint = f"; did you mean '{near[0]}'?" if near else f"; allowed: {', '.join(sorted(allowed))}"
-            raise InputError(f"{section}.{k}" if section else k, f"unknown key{hint}")
-
-
-def number(d: dict, key: str, where: str, default: Any = None, *, positive=False, integer=False, minimum=None):
-    """Fetch a number with type and range checks."""
-    if key not in d:
-        if default is None:
-            raise InputError(f"{where}.{key}", "is required")
-        return default
-    v = d[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        kind = "an integer" if integer else "a number"
-        raise InputError(f"{where}.{key}", f"must be {kind}, got {type(v).__name__} {v!r}")
-    if integer and not isinstance(v, int):
-        raise InputError(f"{where}.{key}", f"must be an integer, got {v!r}")
-    if not math.isfinite(v):
-        raise InputError(f"{where}.{key}", f"must be finite, got {v!r}")
-    if positive and v <= 0:
-        raise InputError(f"{where}.{key}", f"must be > 0, got {v!r}")
-    if minimum is not None and v < minimum:
-        raise InputError(f"{where}.{key}", f"must be >= {minimum}, got {v!r}")
-    return v
-
-
-def vector(d: dict, key: str, where: str, default=None, length: int = 3) -> tuple[float, ...]:
-    if key not in d:
-        if default is None:
-            raise InputError(f"{where}.{key}", "is required")
-        return default
-    v = d[key]
-    if (
-        not isinstance(v, list)
-        or len(v) != length
-        or any(isinstance(c, bool) or not isinstance(c, (int, float)) or not math.isfinite(c) for c in v)
-    ):
-        raise InputError(f"{where}.{key}", f"must be a list of {length} finite numbers, got {v!r}")
-    return tuple(float(c) for c in v)
-
-
-def callable_from_string(spec: str, where: str):
-    """'package.module:function' → the function (user code for thickness, punch shapes)."""
-    if not isinstance(spec, str) or ":" not in spec:
-        raise InputError(where, f"must be 'module:callable', got {spec!r}")
-    mod, _, name = spec.partition(":")
-    try:
-        obj = getattr(importlib.import_module(mod), name)
-    except (ImportError, AttributeError) as exc:
-        raise InputError(where, f"cannot import {spec!r}: {exc}") from None
-    if not callable(obj):
-        raise InputError(where, f"{spec!r} is not callable")
-    return obj
-
-
-@dataclass(frozen=True)
-class MeshSpec:
-    nx: int = 16
-    nphi: int = 16
-    refine: int = 0
-    pattern: str = "alternate"
-    file: str | None = None
-    grading_x: tuple[float, ...] = ()
-    grading_phi: tuple[float, ...] = ()  # radians
-    grading_ratio: float = 1.0
-    x_lines: tuple[float, ...] = ()
-    phi_lines: tuple[float, ...] = ()  # radians
 
 
 @dataclass
@@ -119,126 +162,50 @@ class Case:
     mesh: MeshSpec = field(default_factory=MeshSpec)
     loads: Loads = field(default_factory=Loads)
     probes: list[tuple[float, float]] = field(default_factory=list)  # (x, φ in radians)
-    solver: dict[str, Any] = field(default_factory=dict)
-    punches: list[dict[str, Any]] = field(default_factory=list)  # raw [[punch]] tables
+    solver: SolverOptions = field(default_factory=SolverOptions)
+    punches: tuple[PunchSpec, ...] = ()
     source: Path | None = None
     raw: dict[str, Any] = field(default_factory=dict)
 
 
-def parse_shell(d: dict) -> Shell:
-    if not isinstance(d, dict):
-        raise InputError("shell", "must be a table")
-    _unknown("shell", d, SCHEMA["shell"])
-    full = d.get("full", False)
-    if not isinstance(full, bool):
-        raise InputError("shell.full", f"must be true or false, got {full!r}")
-    if full and "angle" in d:
+def parse_shell(d: Any) -> Shell:
+    v = SHELL.parse(d)
+    full = v["full"]
+    if full and v["angle"] is not None:
         raise InputError("shell.angle", "give either 'angle' or 'full = true', not both")
-    if not full and "angle" not in d:
+    if not full and v["angle"] is None:
         raise InputError("shell.angle", "is required unless full = true (a list [alpha, beta] in degrees)")
-    alpha, beta = (0.0, 360.0) if full else vector(d, "angle", "shell", length=2)
-    if not full and not -720.0 <= alpha < beta <= 720.0:
-        raise InputError("shell.angle", f"needs alpha < beta within [-720, 720] degrees, got [{alpha}, {beta}]")
-    th = d.get("thickness")
-    if isinstance(th, str):
-        th = callable_from_string(th, "shell.thickness")
-    else:
-        th = number(d, "thickness", "shell", positive=True)
-    return Shell(
-        radius=number(d, "radius", "shell", positive=True),
-        length=number(d, "length", "shell", positive=True),
-        thickness=th,
-        young=number(d, "young", "shell", positive=True),
-        poisson=number(d, "poisson", "shell"),
-        alpha=math.radians(alpha),
-        beta=math.radians(beta),
-        full=full,
-        x_start=number(d, "x_start", "shell") if "x_start" in d else None,
-    )
+    alpha, beta = (0.0, 2.0 * math.pi) if full else v["angle"]
+    if not full and not alpha < beta:
+        raise InputError("shell.angle", f"needs alpha < beta, got [{math.degrees(alpha):g}, {math.degrees(beta):g}]")
+    return Shell(radius=v["radius"], length=v["length"], thickness=v["thickness"], young=v["young"],
+                 poisson=v["poisson"], alpha=alpha, beta=beta, full=full, x_start=v["x_start"])
 
 
-def _floats(d: dict, key: str, where: str) -> tuple[float, ...]:
-    v = d.get(key, [])
-    if not isinstance(v, list) or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in v):
-        raise InputError(f"{where}.{key}", f"must be a list of numbers, got {v!r}")
-    return tuple(float(c) for c in v)
+def parse_mesh(d: Any) -> MeshSpec:
+    v = MESH.parse(d)
+    g = v["grading"] or {"x": (), "phi": (), "ratio": 1.0}
+    return MeshSpec(nx=v["nx"], nphi=v["nphi"], refine=v["refine"], pattern=v["pattern"], file=v["file"],
+                    grading_x=g["x"], grading_phi=g["phi"], grading_ratio=g["ratio"], x_lines=v["x_lines"],
+                    phi_lines=v["phi_lines"])
 
 
-def parse_mesh(d: dict) -> MeshSpec:
-    if not isinstance(d, dict):
-        raise InputError("mesh", "must be a table")
-    _unknown("mesh", d, SCHEMA["mesh"])
-    g = d.get("grading", {})
-    if not isinstance(g, dict):
-        raise InputError("mesh.grading", "must be a table {x = [...], phi = [...], ratio = r}")
-    _unknown("mesh.grading", g, {"x", "phi", "ratio"})
-    pattern = d.get("pattern", "alternate")
-    if pattern not in PATTERNS:
-        raise InputError("mesh.pattern", f"must be one of {', '.join(PATTERNS)}, got {pattern!r}")
-    file = d.get("file")
-    if file is not None and not isinstance(file, str):
-        raise InputError("mesh.file", f"must be a path string, got {file!r}")
-    return MeshSpec(
-        nx=number(d, "nx", "mesh", 16, integer=True, minimum=1),
-        nphi=number(d, "nphi", "mesh", 16, integer=True, minimum=1),
-        refine=number(d, "refine", "mesh", 0, integer=True, minimum=0),
-        pattern=pattern,
-        file=file,
-        grading_x=_floats(g, "x", "mesh.grading"),
-        grading_phi=tuple(math.radians(v) for v in _floats(g, "phi", "mesh.grading")),
-        grading_ratio=number(g, "ratio", "mesh.grading", 1.0, minimum=1.0),
-        x_lines=_floats(d, "x_lines", "mesh"),
-        phi_lines=tuple(math.radians(v) for v in _floats(d, "phi_lines", "mesh")),
-    )
-
-
-def _field(d: dict, key: str, where: str, parse, default):
-    """A load value: a constant, or 'module:callable' for a function of (x, phi) (phi in radians)."""
-    value = d.get(key)
-    if isinstance(value, str):
-        if ":" not in value:
-            kind = "a number" if parse is number else "a list of 3 numbers"
-            raise InputError(f"{where}.{key}", f"must be {kind} (or 'module:callable', a function of (x, phi)), "
-                             f"got {value!r}")
-        return callable_from_string(value, f"{where}.{key}")
-    return parse(d, key, where, default)
-
-
-def parse_loads(d: dict) -> Loads:
-    if not isinstance(d, dict):
-        raise InputError("loads", "must be a table")
-    _unknown("loads", d, SCHEMA["loads"])
-    points = []
-    for i, p in enumerate(d.get("point", [])):
-        where = f"loads.point.{i}"
-        if not isinstance(p, dict):
-            raise InputError(where, "must be a table with x, phi, force")
-        _unknown(where, p, {"x", "phi", "force"})
-        points.append(
-            PointLoad(number(p, "x", where), math.radians(number(p, "phi", where)), vector(p, "force", where))
-        )
+def parse_loads(d: Any) -> Loads:
+    v = LOADS.parse(d)
+    points = tuple(PointLoad(p["x"], p["phi"], p["force"]) for p in v["point"])
     lines = []
-    for i, p in enumerate(d.get("line", [])):
-        where = f"loads.line.{i}"
-        if not isinstance(p, dict):
-            raise InputError(where, "must be a table with x or phi, and force and/or normal")
-        _unknown(where, p, {"x", "phi", "force", "normal"})
-        if ("x" in p) == ("phi" in p):
-            raise InputError(where, "give exactly one of 'x' or 'phi'")
-        lines.append(
-            LineLoad(
-                force=_field(p, "force", where, vector, (0.0, 0.0, 0.0)),
-                normal=_field(p, "normal", where, number, 0.0),
-                x=number(p, "x", where) if "x" in p else None,
-                phi=math.radians(number(p, "phi", where)) if "phi" in p else None,
-            )
-        )
-    return Loads(
-        normal=_field(d, "normal", "loads", number, 0.0),
-        surface=_field(d, "surface", "loads", vector, (0.0, 0.0, 0.0)),
-        lines=tuple(lines),
-        points=tuple(points),
-    )
+    for i, p in enumerate(v["line"]):
+        if (p["x"] is None) == (p["phi"] is None):
+            raise InputError(f"loads.line.{i}", "give exactly one of 'x' or 'phi'")
+        lines.append(LineLoad(force=p["force"], normal=p["normal"], x=p["x"], phi=p["phi"]))
+    return Loads(normal=v["normal"], surface=v["surface"], lines=tuple(lines), points=points)
+
+
+def parse_solver(d: Any) -> SolverOptions:
+    if isinstance(d, dict) and d.get("continuation") is True:  # `continuation = true`: no extra ε values
+        d = {**d, "continuation": []}
+    v = SOLVER.parse(d)
+    return SolverOptions(**v)
 
 
 def _check_inside(shell: Shell, where: str, x: float, phi: float) -> None:
@@ -267,40 +234,27 @@ def _check_mesh_lines(shell: Shell, ms: MeshSpec) -> None:
 
 def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
     """Validate a case given as a (TOML-shaped) dictionary; a relative mesh.file is read beside ``source``."""
-    _unknown("", data, SCHEMA)
-    for sec in REQUIRED:
-        if sec not in data:
-            raise InputError(sec, f"section [{sec}] is required")
+    if not isinstance(data, dict):
+        raise InputError("case", f"must be a table of sections, got {type(data).__name__}")
+    check_unknown("", data, CASE.names())
+    if "shell" not in data:
+        raise InputError("shell", "section [shell] is required")
     shell = parse_shell(data["shell"])
-    sup = data.get("supports", {})
-    if not isinstance(sup, dict):
-        raise InputError("supports", "must be a table")
-    _unknown("supports", sup, SCHEMA["supports"])
+    sup = SUPPORTS_TABLE.parse(data.get("supports", {}))
     default = "periodic" if shell.full else "clamped"
-    supports = Supports(
-        x_min=sup.get("x_min", "clamped"),
-        x_max=sup.get("x_max", "clamped"),
-        phi_min=sup.get("phi_min", default),
-        phi_max=sup.get("phi_max", default),
-    )
+    given = data.get("supports", {})
+    supports = Supports(x_min=sup["x_min"], x_max=sup["x_max"],
+                        phi_min=sup["phi_min"] if "phi_min" in given else default,
+                        phi_max=sup["phi_max"] if "phi_max" in given else default)
     if shell.full and not supports.periodic:
         raise InputError("supports.phi_min", "a full cylinder needs phi_min = phi_max = 'periodic'")
     if supports.periodic and not shell.full:
         raise InputError("supports.phi_min", "'periodic' needs a full cylinder (shell.full = true)")
-    probes = []
-    for i, p in enumerate(data.get("probes", [])):
-        if not isinstance(p, dict):
-            raise InputError(f"probes.{i}", "must be a table {x, phi}")
-        _unknown(f"probes.{i}", p, SCHEMA["probes"])
-        probes.append((number(p, "x", f"probes.{i}"), math.radians(number(p, "phi", f"probes.{i}"))))
-        _check_inside(shell, f"probes.{i}", *probes[-1])
-    solver = data.get("solver", {})
-    if not isinstance(solver, dict):
-        raise InputError("solver", "must be a table")
-    _unknown("solver", solver, SCHEMA["solver"])
-    punches = data.get("punch", [])
-    if not isinstance(punches, list):
-        raise InputError("punch", "must be an array of tables [[punch]]")
+    probes = [(p["x"], p["phi"]) for p in CASE.key("probes").parse(data.get("probes", []), "probes")]
+    for i, pr in enumerate(probes):
+        _check_inside(shell, f"probes.{i}", *pr)
+    solver = parse_solver(data.get("solver", {}))
+    punches = parse_punches(data.get("punch", []))
     loads = parse_loads(data.get("loads", {}))
     for i, pt in enumerate(loads.points):
         _check_inside(shell, f"loads.point.{i}", pt.x, pt.phi)
@@ -314,8 +268,8 @@ def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
         mesh=mesh,
         loads=loads,
         probes=probes,
-        solver=dict(solver),
-        punches=[dict(p) for p in punches],
+        solver=solver,
+        punches=punches,
         source=None if source is None else Path(source),
         raw=data,
     )
@@ -346,37 +300,22 @@ def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:
     return case_from_dict(data, source=Path(path))
 
 
-def build_mesh(case: Case, extra_x=(), extra_phi=()) -> ShellMesh:
-    """The mesh of a case: structured (graded, with the required node lines) or from a file."""
-    sh, ms = case.shell, case.mesh
-    if ms.file:
-        mesh = from_file(sh, ms.file)
-    else:
-        req_x = [
-            *ms.x_lines,
-            *extra_x,
-            *(p.x for p in case.loads.points),
-            *(ln.x for ln in case.loads.lines if ln.x is not None),
-        ]
-        req_phi = [
-            *ms.phi_lines,
-            *extra_phi,
-            *(p.phi for p in case.loads.points),
-            *(ln.phi for ln in case.loads.lines if ln.phi is not None),
-        ]
-        for name, vals, lo, hi in (("x", req_x, sh.x_min, sh.x_max), ("phi", req_phi, sh.alpha, sh.beta)):
-            for v in vals:
-                if not lo - 1e-12 <= v <= hi + 1e-12:
-                    shown = v if name == "x" else math.degrees(v)
-                    rng = (lo, hi) if name == "x" else (math.degrees(lo), math.degrees(hi))
-                    raise InputError(
-                        f"mesh.{name}", f"a required node line at {shown:.6g} lies outside [{rng[0]:.6g}, {rng[1]:.6g}]"
-                    )
-        xs = graded_nodes(sh.x_min, sh.x_max, ms.nx, ms.grading_x, ms.grading_ratio, req_x)
-        ss = sh.radius * graded_nodes(sh.alpha, sh.beta, ms.nphi, ms.grading_phi, ms.grading_ratio, req_phi)
-        mesh = structured(sh, len(xs) - 1, len(ss) - 1, ms.pattern, x_nodes=xs, s_nodes=ss)
-    return mesh.refined(ms.refine)
+# -- docs/case-file.md: the key tables between the markers <!-- keys: NAME --> and <!-- /keys --> ---------------
+def document(text: str) -> str:
+    """``text`` with every marked key table regenerated from the schema (``DOC_TABLES``)."""
+    out, pos = [], 0
+    while (start := text.find("<!-- keys: ", pos)) >= 0:
+        head_end = text.index("-->", start) + 3
+        name = text[start + len("<!-- keys: "): head_end - 3].strip()
+        end = text.index("<!-- /keys -->", head_end)
+        table = DOC_TABLES[name]
+        out += [text[pos:head_end], "\n", f"{table.doc}\n\n" if table.doc else "", table.markdown(), "\n"]
+        pos = end
+    return "".join(out) + text[pos:]
 
 
-def probe_points(case: Case) -> np.ndarray:
-    return np.array(case.probes, dtype=float).reshape(-1, 2)
+if __name__ == "__main__":  # python -m shellcontact.case docs/case-file.md: regenerate the key tables
+    import sys
+
+    doc = Path(sys.argv[1])
+    doc.write_text(document(doc.read_text()))

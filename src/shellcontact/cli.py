@@ -26,9 +26,9 @@ from pathlib import Path
 
 from . import __version__
 from .errors import InputError, SolverError
+from .solvers.methods import METHODS
 
 EXIT_OK, EXIT_FAIL, EXIT_INPUT, EXIT_SOLVER = 0, 1, 2, 3
-METHODS = ("dual", "active-set", "penalty")
 
 log = logging.getLogger("shellcontact")
 
@@ -260,7 +260,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
     p.add_argument("case", help="TOML case file (keys: docs/case-file.md)")
     p.add_argument("-o", "--output", metavar="DIR", help=out_help)
-    p.add_argument("--method", choices=METHODS, help="contact solver; same as --set solver.method=...")
+    p.add_argument("--method", choices=tuple(METHODS), help="contact solver; same as --set solver.method=...")
     p.add_argument(
         "--set",
         action="append",

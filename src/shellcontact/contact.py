@@ -46,7 +46,7 @@ import scipy.sparse as sp
 
 from .errors import InputError
 from .geometry import frame
-from .punch import Punch
+from .punches import Punch
 from .spaces import ShellSpace
 
 POINTS = ("vertices", "vertices+midpoints")
@@ -374,7 +374,7 @@ def penetration_outside(
     """
     from dataclasses import replace
 
-    from .punch import Zone
+    from .punches import Zone
 
     sh = space.mesh.shell
     whole = Zone((sh.x_min, sh.x_max), ((sh.alpha, sh.beta),))

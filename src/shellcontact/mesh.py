@@ -8,6 +8,7 @@ columns are sorted (this fixes the orientation of the Argyris edge-normal dofs).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -20,6 +21,22 @@ from .geometry import Shell
 
 EDGES = ("x_min", "x_max", "phi_min", "phi_max")
 PATTERNS = ("alternate", "right", "left", "crossed")
+
+
+@dataclass(frozen=True)
+class MeshSpec:
+    """The ``[mesh]`` table: a structured mesh (graded, with required node lines) or a mesh file."""
+
+    nx: int = 16
+    nphi: int = 16
+    refine: int = 0
+    pattern: str = "alternate"
+    file: str | None = None
+    grading_x: tuple[float, ...] = ()
+    grading_phi: tuple[float, ...] = ()  # radians
+    grading_ratio: float = 1.0
+    x_lines: tuple[float, ...] = ()
+    phi_lines: tuple[float, ...] = ()  # radians
 
 
 def graded_nodes(
@@ -234,3 +251,30 @@ def from_file(shell: Shell, path: str) -> ShellMesh:
     renumber[used] = np.arange(used.size)
     p = m.points[used, :2].T
     return ShellMesh(shell, MeshTri(np.ascontiguousarray(p, float), renumber[t]))
+
+
+def build_mesh(shell: Shell, spec: MeshSpec, lines_x: Sequence[float] = (), lines_phi: Sequence[float] = (),
+               focus_x: Sequence[float] = (), focus_phi: Sequence[float] = ()) -> ShellMesh:
+    """The mesh of ``spec``: structured (graded, with node lines at ``spec``'s and the given ``lines``) or read.
+
+    ``focus_x``/``focus_phi`` (e.g. a punch's first contact) are the grading foci when ``spec`` has a
+    grading ratio > 1 but no focus of its own. φ values are in radians.
+    """
+    if spec.file:
+        return from_file(shell, spec.file).refined(spec.refine)
+    req_x = [*spec.x_lines, *lines_x]
+    req_phi = [*spec.phi_lines, *lines_phi]
+    for name, vals, lo, hi in (("x", req_x, shell.x_min, shell.x_max), ("phi", req_phi, shell.alpha, shell.beta)):
+        for v in vals:
+            if not lo - 1e-12 <= v <= hi + 1e-12:
+                shown = v if name == "x" else math.degrees(v)
+                rng = (lo, hi) if name == "x" else (math.degrees(lo), math.degrees(hi))
+                raise InputError(
+                    f"mesh.{name}", f"a required node line at {shown:.6g} lies outside [{rng[0]:.6g}, {rng[1]:.6g}]"
+                )
+    gx, gphi = spec.grading_x, spec.grading_phi
+    if spec.grading_ratio > 1.0 and not gx and not gphi:
+        gx, gphi = tuple(focus_x), tuple(focus_phi)
+    xs = graded_nodes(shell.x_min, shell.x_max, spec.nx, gx, spec.grading_ratio, req_x)
+    ss = shell.radius * graded_nodes(shell.alpha, shell.beta, spec.nphi, gphi, spec.grading_ratio, req_phi)
+    return structured(shell, len(xs) - 1, len(ss) - 1, spec.pattern, x_nodes=xs, s_nodes=ss).refined(spec.refine)

@@ -1,0 +1,31 @@
+"""How a case is solved: the typed ``[solver]`` table (validated by ``case.SOLVER``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from .errors import InputError
+from .solvers.methods import DEFAULT_METHOD, METHODS
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """The validated ``[solver]`` table (docs/case-file.md)."""
+
+    method: str = DEFAULT_METHOD
+    tolerance: float = 1e-10
+    penalty: float | None = None  # ε; default: 1e-6 · a²/(E t), see ``analysis.default_penalty``
+    continuation: tuple[float, ...] = ()
+    max_iterations: int | None = None
+    backend: str = "auto"
+    nested: bool = False
+    contact_points: str = "vertices"
+    extended_precision: bool = False
+
+    def with_method(self, method: str | None) -> SolverOptions:
+        """These options with another contact method (the ``method=`` argument of ``solve``)."""
+        if method is None:
+            return self
+        if method not in METHODS:
+            raise InputError("solver.method", f"must be one of {', '.join(METHODS)}, got {method!r}")
+        return replace(self, method=method)

@@ -1,0 +1,42 @@
+"""Rigid punches (MODEL.md §5): shapes, their case-file tables, candidate zones and placement.
+
+    specs = parse_punches(raw["punch"])            # validated PunchSpec objects (spec)
+    punches = place_punches(specs, shell)          # placed Punch objects (placement)
+    xs, phis = fitted_lines(punches, shell)        # node lines for mesh.build_mesh
+    fx, fphi = focus_lines(punches)                # first-contact lines, for mesh grading
+
+Modules: ``shapes`` (implicit surfaces Z and the shape registry ``SHAPES``), ``spec`` (one
+``[[punch]]`` table → ``PunchSpec``), ``zones`` (candidate zones, sampling of the contact surface,
+the automatic zone), ``placement`` (first contact, indentation/force placement, checks).
+"""
+
+from .placement import Punch, fitted_lines, focus_lines, place, place_punches, punch_from_dict
+from .shapes import SHAPES, Custom, Cylinder, Ellipsoid, Plane, ShapeType, Sphere, Torus, register
+from .spec import PUNCH, ZONE, PunchSpec, parse_punch, parse_punches
+from .zones import Zone, contact_surface, surface_minimum
+
+__all__ = [
+    "PUNCH",
+    "SHAPES",
+    "ZONE",
+    "Custom",
+    "Cylinder",
+    "Ellipsoid",
+    "Plane",
+    "Punch",
+    "PunchSpec",
+    "ShapeType",
+    "Sphere",
+    "Torus",
+    "Zone",
+    "contact_surface",
+    "fitted_lines",
+    "focus_lines",
+    "parse_punch",
+    "parse_punches",
+    "place",
+    "place_punches",
+    "punch_from_dict",
+    "register",
+    "surface_minimum",
+]

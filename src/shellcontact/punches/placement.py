@@ -1,0 +1,370 @@
+"""Placing a punch (MODEL.md §5): from its ``PunchSpec`` and the shell to a ``Punch`` at its final position.
+
+Placement: nothing (the given position is final; overlap with the undeformed contact surface is a
+prescribed interference), or ``indentation = d >= 0``: the punch is translated along
+``direction`` to where it just touches the undeformed contact surface in its candidate zone,
+then d further; or ``force = P > 0``: the punch starts at the just-touching position and its
+rigid translation δ along ``direction`` is an unknown (Π = Z − δ ∇Z·d + ∇Z·U, energy −P δ).
+``direction`` defaults to the plane's normal, otherwise the direction from the punch centre toward
+the shell axis (side = "outer") or away from it (side = "inner"); it is required for custom shapes
+and for centres on the shell axis. The just-touching translation t solves min_M Z(M − t d) = 0
+over the contact surface of the zone (sphere tracing + Newton to a bracket, then Brent); a punch
+given in overlap backs off (t < 0).
+
+Without ``zone.x``/``zone.phi`` the zone is automatic: the bounding box in (x, φ) of {Z < g} on the
+contact surface (``zones.automatic_zone``), Z of the placed punch (for force control the
+just-touching one), with g = ``zone.gap`` or max(2·overlap, 0.2·size), overlap = −min Z ≥ 0, size
+= the punch's smallest radius (the shell radius for a plane or custom shape) capped by the shell
+radius. For force control the travel is unknown in advance: if the contact zone reaches the edge
+of the automatic zone, give a larger gap or an explicit zone.
+
+Refused (InputError naming the key): a zone outside Ω or empty, a punch that never touches the
+shell moving along ``direction``, a punch whose smallest gap over its zone is not below g, an
+overlap larger than the shell can take (> 0.2·a, or > 10·t: far outside linear shell theory), and
+a custom function that raises, returns wrong shapes or non-finite values on the shell.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from ..geometry import Shell, frame
+from .shapes import Custom
+from .spec import PunchSpec, parse_punch
+from .zones import Zone, automatic_zone, contact_surface, given_zone, surface_minimum, whole_shell
+
+OVERLAP_RADIUS_FRACTION = 0.2  # overlap must stay below this fraction of the shell radius
+OVERLAP_THICKNESSES = 10.0  # ... and below this many shell thicknesses
+ZONE_OVERLAP_FACTOR = 2.0  # automatic zone threshold g = max(2 overlap, 0.2 size)
+ZONE_SIZE_FRACTION = 0.2
+
+
+@dataclass
+class Punch:
+    """A validated, placed rigid punch (MODEL.md §5).
+
+    ``Z(X)`` includes the placement translation ``offset`` (Z(X) = ±Z_shape(X − offset)) and the
+    inversion. ``mode`` is "fixed", "indentation" or "force"; for force control the punch sits at
+    the just-touching position and ``direction``/``force`` define the unknown travel δ.
+    """
+
+    index: int
+    shape: str
+    body: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    inverted: bool
+    side: str
+    mode: str
+    direction: np.ndarray | None
+    indentation: float
+    force: float
+    zone: Zone
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    touch_travel: float = 0.0  # translation along direction from the given to the just-touching position
+    center: np.ndarray = field(default_factory=lambda: np.zeros(3))  # reference point (placed)
+    overlap: float = 0.0  # −min Z ≥ 0 on the undeformed contact surface (prescribed interference)
+    min_gap: float = 0.0  # min Z on the contact surface in the zone (= −overlap when overlapping)
+    first_contact: tuple[float, float] = (math.nan, math.nan)  # (x, φ) of min Z
+    # whether Z varies along x (at φ of first contact) / along φ (at x of first contact): False for
+    # the generator of a parallel roller (x) or the circle of a ring (φ); such lines are not fitted
+    varies_x: bool = True
+    varies_phi: bool = True
+    size: float = math.inf
+
+    @property
+    def where(self) -> str:
+        return f"punch.{self.index}"
+
+    @property
+    def side_sign(self) -> float:
+        return 1.0 if self.side == "outer" else -1.0
+
+    @property
+    def force_controlled(self) -> bool:
+        return self.mode == "force"
+
+    def Z(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(Z, ∇Z) of the placed punch at points X (3, n)."""
+        X = np.asarray(X, dtype=float).reshape(3, -1)
+        Z, g = self.body(X - self.offset[:, None])
+        if self.inverted:
+            return -Z, -g
+        return Z, g
+
+    def __call__(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.Z(X)
+
+    def zeta(self, shell: Shell, x: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        return 0.5 * self.side_sign * shell.t(np.asarray(x, float), phi)
+
+
+
+def _check_custom(body: Custom, shell: Shell, where: str) -> None:
+    x = np.linspace(shell.x_min, shell.x_max, 3)
+    phi = np.linspace(shell.alpha, shell.beta, 3)
+    X = shell.point(*np.meshgrid(x, phi, indexing="ij"), 0.0).reshape(3, -1)
+    try:
+        Z, g = body.function(X)
+        Z, g = np.asarray(Z, dtype=float), np.asarray(g, dtype=float)
+    except Exception as exc:  # user code may raise anything
+        raise InputError(
+            f"{where}.function", f"calling {body.name} on points X of shape (3, n) failed: {exc!r}"
+        ) from None
+    if Z.shape != (X.shape[1],) or g.shape != X.shape:
+        raise InputError(
+            f"{where}.function",
+            f"must return (Z, gradZ) of shapes (n,) and (3, n) for X of shape (3, n); got {Z.shape} and {g.shape}",
+        )
+    if not (np.all(np.isfinite(Z)) and np.all(np.isfinite(g))):
+        raise InputError(f"{where}.function", "returned non-finite values on the shell")
+
+
+def _default_direction(body, shape: str, side: str, shell: Shell, where: str) -> np.ndarray:
+    if shape == "plane":
+        return body.normal.copy()
+    if shape == "custom":
+        raise InputError(f"{where}.direction", "is required for a custom shape with indentation or force")
+    c = np.asarray(body.center, float)
+    perp = np.array([0.0, c[1], c[2]])
+    if np.linalg.norm(perp) < 1e-9 * shell.radius:
+        raise InputError(
+            f"{where}.direction",
+            "is required: the punch centre lies on the shell axis, so 'toward the axis' is undefined",
+        )
+    perp /= np.linalg.norm(perp)
+    return -perp if side == "outer" else perp
+
+
+def _touch_travel(punch: Punch, shell: Shell, body_Z, where: str) -> float:
+    """Translation t along ``direction`` with min over the contact surface of Z(M − t d) = 0."""
+    d = punch.direction
+    zone = punch.zone
+
+    def f(t: float) -> tuple[float, float, float]:
+        return surface_minimum(lambda M: body_Z(M - t * d[:, None])[0], shell, punch.side_sign, zone)
+
+    def slope(t: float, x: float, phi: float) -> float:
+        M = contact_surface(shell, np.array([x]), np.array([phi]), punch.side_sign)
+        return float(-(body_Z(M - t * d[:, None])[1][:, 0] @ d))
+
+    scale = max(shell.length, shell.radius, float(np.max(np.abs(punch.center))))
+    tmax = 20.0 * scale
+    tol = 1e-12 * scale
+    f0, x0, p0 = f(0.0)
+    if abs(f0) <= tol:
+        return 0.0
+    sgn = 1.0 if f0 > 0 else -1.0  # not touching: move forward; overlapping: back off
+    ta, fa, xa, pa = 0.0, f0, x0, p0
+    for _ in range(400):
+        c = abs(slope(ta, xa, pa))
+        step = abs(fa) / max(c, 0.1)
+        step = min(max(step, abs(fa)), 10.0 * abs(fa))
+        tb = ta + sgn * step
+        fb, xb, pb = f(tb)
+        if abs(fb) <= tol:
+            return tb
+        if np.sign(fb) != np.sign(fa):
+            break
+        ta, fa, xa, pa = tb, fb, xb, pb
+        if abs(ta) > tmax:
+            tb = math.nan
+            break
+    else:
+        tb = math.nan
+    if not math.isfinite(tb):
+        what = "touches" if sgn > 0 else "separates from"
+        raise InputError(
+            f"{where}.direction",
+            f"moving the punch along {np.round(d, 6).tolist()} it never {what} the {punch.side} contact surface "
+            f"in the zone ({zone.describe()}); check center, direction and side",
+        )
+    from scipy.optimize import brentq
+
+    return float(brentq(lambda t: f(t)[0], min(ta, tb), max(ta, tb), xtol=tol, rtol=1e-15, maxiter=200))
+
+
+def _polish_minimum(punch: Punch, shell: Shell, x: float, phi: float, width: float) -> tuple[float, float, float]:
+    """Refine the grid minimiser of Z on the contact surface by zeroing ∂Z/∂x and ∂Z/∂φ in turn."""
+    from scipy.optimize import brentq
+
+    a, side = shell.radius, punch.side_sign
+
+    def dZ(xv: float, pv: float, coord: int) -> float:
+        x1, p1 = np.array([xv]), np.array([pv])
+        M = contact_surface(shell, x1, p1, side)
+        g = punch.Z(M)[1][:, 0]
+        e1, e2, n = (v[:, 0] for v in frame(p1))
+        h = 1e-6 * max(shell.length, a)
+        if coord == 0:
+            dzeta = (punch.zeta(shell, x1 + h, p1) - punch.zeta(shell, x1 - h, p1))[0] / (2 * h)
+            return float(g @ (e1 + dzeta * n))
+        dzeta = (punch.zeta(shell, x1, p1 + h / a) - punch.zeta(shell, x1, p1 - h / a))[0] / (2 * h / a)
+        zeta = punch.zeta(shell, x1, p1)[0]
+        return float(g @ ((a + zeta) * e2 + dzeta * n))
+
+    prange = next(((p0, p1) for p0, p1 in punch.zone.phi if p0 <= phi <= p1), (phi, phi))
+    lims = ((punch.zone.x[0], punch.zone.x[1]), prange)
+    widths = (width * max(shell.length, 1e-300), width * (shell.beta - shell.alpha))
+    c = [x, phi]
+    for _ in range(2):
+        for k in (0, 1):
+            lo, hi = max(lims[k][0], c[k] - widths[k]), min(lims[k][1], c[k] + widths[k])
+            if not lo < hi:
+                continue
+
+            def f(v: float, k: int = k) -> float:
+                cc = list(c)
+                cc[k] = v
+                return dZ(cc[0], cc[1], k)
+
+            flo, fhi = f(lo), f(hi)
+            if flo < 0.0 < fhi:
+                c[k] = float(brentq(f, lo, hi, xtol=1e-15 * max(1.0, abs(c[k])), rtol=1e-15))
+    M = contact_surface(shell, np.array([c[0]]), np.array([c[1]]), side)
+    return float(punch.Z(M)[0][0]), c[0], c[1]
+
+
+def place(spec: PunchSpec, shell: Shell) -> Punch:
+    """The punch of ``spec`` at its final position on ``shell`` (see the module docstring)."""
+    where, body, mode = spec.where, spec.body, spec.mode
+    if isinstance(body, Custom):
+        _check_custom(body, shell, where)
+    direction = spec.direction
+    if direction is None and mode != "fixed":
+        direction = _default_direction(body, spec.shape, spec.side, shell, where)
+    given = given_zone(spec.zone_x, spec.zone_phi, shell, f"{where}.zone") if spec.zone_given else None
+    center = np.asarray(getattr(body, "center", np.zeros(3)), dtype=float)
+    size = min(float(body.size), shell.radius)
+    punch = Punch(
+        index=spec.index,
+        shape=spec.shape,
+        body=body,
+        inverted=spec.inverted,
+        side=spec.side,
+        mode=mode,
+        direction=direction,
+        indentation=spec.indentation,
+        force=spec.force,
+        zone=given or whole_shell(shell),
+        center=center.copy(),
+        size=size,
+    )
+    sgn = -1.0 if spec.inverted else 1.0
+
+    def body_Z(X):
+        Z, g = body(X)
+        return sgn * Z, sgn * g
+
+    if mode != "fixed":
+        t0 = _touch_travel(punch, shell, body_Z, where)
+        punch.touch_travel = t0
+        travel = t0 + (spec.indentation if mode == "indentation" else 0.0)
+        punch.offset = travel * direction
+        punch.center = center + punch.offset
+    zmin, xm, pm = surface_minimum(lambda M: punch.Z(M)[0], shell, punch.side_sign, punch.zone)
+    zp, xp, pp = _polish_minimum(punch, shell, xm, pm, 1e-4)
+    if zp <= zmin:
+        zmin, xm, pm = zp, xp, pp
+    punch.min_gap, punch.first_contact = zmin, (xm, pm)
+    punch.overlap = max(0.0, -zmin)
+    # overlap larger than the shell can take
+    tmax = float(
+        np.max(shell.t(np.linspace(shell.x_min, shell.x_max, 9)[:, None], np.linspace(shell.alpha, shell.beta, 9)))
+    )
+    key = f"{where}.indentation" if mode == "indentation" else where
+    if punch.overlap > OVERLAP_RADIUS_FRACTION * shell.radius:
+        raise InputError(
+            key,
+            f"the punch overlaps the undeformed shell by {punch.overlap:.4g}, more than "
+            f"{OVERLAP_RADIUS_FRACTION} x radius = {OVERLAP_RADIUS_FRACTION * shell.radius:.4g}: "
+            "far beyond a linear shell",
+        )
+    if punch.overlap > OVERLAP_THICKNESSES * tmax:
+        raise InputError(
+            key,
+            f"the punch overlaps the undeformed shell by {punch.overlap:.4g}, more than {OVERLAP_THICKNESSES:g} "
+            f"thicknesses ({OVERLAP_THICKNESSES * tmax:.4g}): far beyond a linear shell",
+        )
+    gap = spec.zone_gap if spec.zone_gap is not None else max(
+        ZONE_OVERLAP_FACTOR * punch.overlap, ZONE_SIZE_FRACTION * size)
+    zone = given or automatic_zone(lambda M: punch.Z(M)[0], shell, punch.side_sign, gap, punch.first_contact, zmin)
+    if zone is None or zmin >= gap:
+        x, p = punch.first_contact
+        raise InputError(
+            where,
+            f"the punch does not touch the {spec.side} surface of the shell: smallest gap {zmin:.4g} (at "
+            f"x = {x:.6g}, phi = {math.degrees(p):.6g} deg) is not below the zone threshold {gap:.4g}; "
+            "move it or give 'indentation' or 'force'",
+        )
+    punch.zone = zone
+    punch.varies_x, punch.varies_phi = _variation(punch, shell)
+    return punch
+
+
+def place_punches(specs: Sequence[PunchSpec], shell: Shell) -> list[Punch]:
+    """Every punch of a case, placed."""
+    return [place(s, shell) for s in specs]
+
+
+def punch_from_dict(raw: dict, shell: Shell, index: int = 0) -> Punch:
+    """Parse and place one ``[[punch]]`` table (a convenience for scripts and tests)."""
+    return place(parse_punch(raw, index), shell)
+
+
+def _variation(punch: Punch, shell: Shell, n: int = 64) -> tuple[bool, bool]:
+    """Does Z change along the x-line and the φ-circle through the first-contact point (in the zone)?"""
+    x, phi = punch.first_contact
+    if not (math.isfinite(x) and math.isfinite(phi)):
+        return False, False
+    tol = 1e-9 * min(punch.size, shell.radius)
+    xs = np.linspace(punch.zone.x[0], punch.zone.x[1], n)
+    zx = punch.Z(contact_surface(shell, xs, np.full(n, phi), punch.side_sign))[0]
+    ps = np.concatenate([np.linspace(p0, p1, n) for p0, p1 in punch.zone.phi])
+    zp = punch.Z(contact_surface(shell, np.full(ps.size, x), ps, punch.side_sign))[0]
+    return bool(np.ptp(zx) > tol), bool(np.ptp(zp) > tol)
+
+
+
+def _dedupe(values: list[float], lo: float, hi: float, tol: float) -> list[float]:
+    out: list[float] = []
+    for v in sorted(v for v in values if lo + tol < v < hi - tol):
+        if not out or v - out[-1] > tol:
+            out.append(v)
+    return out
+
+
+def focus_lines(punches: Sequence[Punch]) -> tuple[list[float], list[float]]:
+    """x and φ (radians) of each punch's point of first contact / deepest overlap (grading focus).
+
+    A coordinate along which Z does not vary (a ring: φ; a parallel roller: x; a coaxial sleeve:
+    both) gives no line.
+    """
+    xs = [p.first_contact[0] for p in punches if p.varies_x and math.isfinite(p.first_contact[0])]
+    ps = [p.first_contact[1] for p in punches if p.varies_phi and math.isfinite(p.first_contact[1])]
+    return xs, ps
+
+
+def fitted_lines(punches: Sequence[Punch], shell: Shell) -> tuple[list[float], list[float]]:
+    """Node lines (x values, φ values in radians) for ``mesh.build_mesh``.
+
+    The edges of every candidate zone, and the x- and φ-lines through each punch's point of first
+    contact (deepest overlap): for a sphere the point itself, for a ring around the pipe its plane
+    x = const, for a parallel roller its generator φ = const, for a transverse bar the line under it.
+    Lines on or within 1e-9·extent of the shell edges or of each other are merged.
+    """
+    xs: list[float] = []
+    ps: list[float] = []
+    for p in punches:
+        xs += list(p.zone.x)
+        for a, b in p.zone.phi:
+            ps += [a, b]
+    fx, fp = focus_lines(punches)
+    xs += fx
+    ps += fp
+    tx = 1e-9 * max(shell.length, 1.0)
+    tp = 1e-9 * (shell.beta - shell.alpha)
+    return _dedupe(xs, shell.x_min, shell.x_max, tx), _dedupe(ps, shell.alpha, shell.beta, tp)

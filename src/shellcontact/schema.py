@@ -1,0 +1,278 @@
+"""The declarative case-file schema: each table's keys, types, units, ranges, defaults and meaning.
+
+One description serves four purposes: parsing (``Table.parse``), the error messages (``InputError``
+naming the key path and what is allowed), the "did you mean" hints for unknown keys, and the key
+tables of docs/case-file.md (``Table.markdown``; ``python -m shellcontact.schema`` rewrites them and a
+test keeps them in step). Every value is checked here once; the layers below receive typed values.
+
+This module knows nothing of shells or punches: the tables themselves are declared where their
+concept lives (``case`` for the case file, ``punches.shapes`` for each shape's keys).
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import math
+import numbers
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import InputError
+
+
+class _Required:
+    def __repr__(self) -> str:
+        return "required"
+
+
+REQUIRED: Any = _Required()
+
+#: kinds of value and how the docs name them
+KINDS = {
+    "number": "number",
+    "integer": "integer",
+    "bool": "bool",
+    "choice": "string",
+    "string": "string",
+    "vector": "[x, y, z]",
+    "pair": "[a, b]",
+    "numbers": "list of numbers",
+    "function": "string `\"module:function\"`",
+    "number_or_function": "number or `\"module:function\"`",
+    "vector_or_function": "[fx, fy, fz] or `\"module:function\"`",
+    "matrix3": "[[..], [..], [..]]",
+    "table": "table",
+    "tables": "array of tables",
+}
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+
+def to_float(v: Any, where: str) -> float:
+    """A finite float from a number (ints too large for a float are refused by name)."""
+    if not _is_number(v):
+        raise InputError(where, f"must be a number, got {type(v).__name__} {v!r}")
+    try:
+        f = float(v)
+    except OverflowError:
+        raise InputError(where, f"is too large for a floating-point number: {v!r}") from None
+    if not math.isfinite(f):
+        raise InputError(where, f"must be finite, got {v!r}")
+    return f
+
+
+def callable_from_string(spec: Any, where: str) -> Callable:
+    """'package.module:function' → the function (user code for thickness, loads, punch shapes)."""
+    if callable(spec):  # programmatic use
+        return spec
+    if not isinstance(spec, str) or ":" not in spec:
+        raise InputError(where, f"must be 'module:callable', got {spec!r}")
+    mod, _, name = spec.partition(":")
+    try:
+        obj = getattr(importlib.import_module(mod), name)
+    except Exception as exc:  # noqa: BLE001 — importing user code may raise anything
+        raise InputError(where, f"cannot import {spec!r}: {exc}") from None
+    if not callable(obj):
+        raise InputError(where, f"{spec!r} is not callable")
+    return obj
+
+
+@dataclass(frozen=True)
+class Key:
+    """One case-file key: its kind, unit, default, allowed range and meaning.
+
+    ``lo``/``hi`` bound numbers (``open`` excludes the bounds named in it: "lo", "hi");
+    ``angle`` means degrees in the file and radians inside; ``table`` is the nested table of a
+    ``table``/``tables`` key; ``allowed`` overrides the generated "allowed" column of the docs.
+    """
+
+    name: str
+    kind: str
+    doc: str
+    unit: str = "–"
+    default: Any = REQUIRED
+    lo: float | None = None
+    hi: float | None = None
+    open: tuple[str, ...] = ()
+    choices: tuple[Any, ...] = ()
+    length: int = 3
+    angle: bool = False
+    table: Table | None = None
+    allowed: str | None = None
+    default_doc: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"unknown kind {self.kind!r} of key {self.name!r}")
+
+    # -- parsing -----------------------------------------------------------------------------------
+    def _range(self, v: float, where: str) -> float:
+        lo_bad = self.lo is not None and (v <= self.lo if "lo" in self.open else v < self.lo)
+        hi_bad = self.hi is not None and (v >= self.hi if "hi" in self.open else v > self.hi)
+        if lo_bad or hi_bad:
+            raise InputError(where, f"must be {self.range_text()}, got {v!r}")
+        return v
+
+    def range_text(self) -> str:
+        lo_op = ">" if "lo" in self.open else ">="
+        hi_op = "<" if "hi" in self.open else "<="
+        if self.lo is not None and self.hi is not None:
+            lb = "(" if "lo" in self.open else "["
+            rb = ")" if "hi" in self.open else "]"
+            return f"in {lb}{self.lo:g}, {self.hi:g}{rb}"
+        if self.lo is not None:
+            return f"{lo_op} {self.lo:g}"
+        if self.hi is not None:
+            return f"{hi_op} {self.hi:g}"
+        return "finite"
+
+    def _number(self, v: Any, where: str) -> float:
+        f = self._range(to_float(v, where), where)
+        return math.radians(f) if self.angle else f
+
+    def _numbers(self, v: Any, where: str, length: int | None) -> tuple[float, ...]:
+        what = f"a list of {length} numbers" if length else "a list of numbers"
+        if not isinstance(v, (list, tuple)) or (length is not None and len(v) != length):
+            raise InputError(where, f"must be {what}, got {v!r}")
+        return tuple(self._number(c, where) for c in v)
+
+    def parse(self, v: Any, where: str) -> Any:
+        """The typed value of ``v`` (given) at key path ``where``."""
+        k = self.kind
+        if k == "number":
+            return self._number(v, where)
+        if k == "integer":
+            if not isinstance(v, numbers.Integral) or isinstance(v, bool):
+                raise InputError(where, f"must be an integer, got {type(v).__name__} {v!r}")
+            return int(self._range(int(v), where))
+        if k == "bool":
+            if not isinstance(v, bool):
+                raise InputError(where, f"must be true or false, got {v!r}")
+            return v
+        if k == "choice":
+            if v not in self.choices or isinstance(v, bool):
+                raise InputError(where, f"must be one of {', '.join(map(str, self.choices))}, got {v!r}")
+            return v
+        if k == "string":
+            if not isinstance(v, str):
+                raise InputError(where, f"must be a string, got {v!r}")
+            return v
+        if k == "vector":
+            return self._numbers(v, where, self.length)
+        if k == "pair":
+            return self._numbers(v, where, 2)
+        if k == "numbers":
+            return self._numbers(v, where, None)
+        if k == "function":
+            return callable_from_string(v, where)
+        if k in ("number_or_function", "vector_or_function"):
+            if isinstance(v, str) or callable(v):
+                if isinstance(v, str) and ":" not in v:
+                    what = "a number" if k == "number_or_function" else f"a list of {self.length} numbers"
+                    raise InputError(where, f"must be {what} (or 'module:callable', a function of (x, phi)), got {v!r}")
+                return callable_from_string(v, where)
+            return self._number(v, where) if k == "number_or_function" else self._numbers(v, where, self.length)
+        if k == "matrix3":
+            if not isinstance(v, (list, tuple)) or len(v) != 3:
+                raise InputError(where, f"must be three 3-vectors [[..], [..], [..]], got {v!r}")
+            return tuple(self._numbers(r, where, 3) for r in v)
+        assert self.table is not None
+        if k == "table":
+            return self.table.parse(v, where)
+        if not isinstance(v, (list, tuple)):
+            raise InputError(where, f"must be an array of tables [[{where}]], got {type(v).__name__}")
+        return tuple(self.table.parse(item, f"{where}.{i}") for i, item in enumerate(v))
+
+    # -- documentation -----------------------------------------------------------------------------
+    def allowed_text(self) -> str:
+        if self.allowed is not None:
+            return self.allowed
+        if self.kind == "choice":
+            return ", ".join(f'`"{c}"`' if isinstance(c, str) else f"`{c}`" for c in self.choices)
+        if self.kind == "bool":
+            return "`true`/`false`"
+        if self.kind in ("number", "integer", "vector", "pair", "numbers", "number_or_function",
+                         "vector_or_function"):
+            return self.range_text()
+        return "–"
+
+    def default_text(self) -> str:
+        if self.default_doc is not None:
+            return self.default_doc
+        d = self.default
+        if d is REQUIRED:
+            return "required"
+        if d is None:
+            return "none"
+        if isinstance(d, bool):
+            return f"`{str(d).lower()}`"
+        if isinstance(d, str):
+            return f'`"{d}"`'
+        if self.angle and _is_number(d):
+            return f"{math.degrees(d):g}"
+        if isinstance(d, tuple):
+            if self.angle:
+                d = tuple(math.degrees(c) for c in d)
+            return "`[" + ", ".join(f"{c:g}" for c in d) + "]`"
+        return f"{d:g}" if _is_number(d) else f"`{d}`"
+
+
+@dataclass(frozen=True)
+class Table:
+    """A case-file table: its keys, in documentation order."""
+
+    name: str
+    keys: tuple[Key, ...]
+    doc: str = ""
+
+    def key(self, name: str) -> Key:
+        for k in self.keys:
+            if k.name == name:
+                return k
+        raise KeyError(name)
+
+    def names(self) -> list[str]:
+        return [k.name for k in self.keys]
+
+    def parse(self, raw: Any, where: str | None = None, keys: Sequence[Key] | None = None) -> dict[str, Any]:
+        """Typed values of every key of the table (defaults filled in; a missing default is None).
+
+        ``keys`` replaces the table's keys (e.g. the common keys plus a punch shape's own).
+        """
+        where = self.name if where is None else where
+        keys = tuple(self.keys if keys is None else keys)
+        if not isinstance(raw, Mapping):
+            raise InputError(where, f"must be a table, got {type(raw).__name__} {raw!r}")
+        check_unknown(where, raw, [k.name for k in keys])
+        out: dict[str, Any] = {}
+        for k in keys:
+            path = f"{where}.{k.name}" if where else k.name
+            if k.name in raw:
+                out[k.name] = k.parse(raw[k.name], path)
+            elif k.default is REQUIRED:
+                raise InputError(path, "is required")
+            else:
+                out[k.name] = k.default
+        return out
+
+    def markdown(self, keys: Sequence[Key] | None = None) -> str:
+        """The docs' key table: key, type, unit, default, allowed, meaning."""
+        rows = ["| key | type | unit | default | allowed | meaning |", "|---|---|---|---|---|---|"]
+        for k in self.keys if keys is None else keys:
+            unit = "degrees" if k.angle else k.unit
+            kind = "[a, b]" if k.kind == "pair" else KINDS[k.kind]
+            rows.append(f"| `{k.name}` | {kind} | {unit} | {k.default_text()} | {k.allowed_text()} | {k.doc} |")
+        return "\n".join(rows)
+
+
+def check_unknown(where: str, raw: Mapping, allowed: Sequence[str]) -> None:
+    """Unknown keys are errors, with the nearest allowed key as a hint."""
+    for k in raw:
+        if k not in allowed:
+            near = difflib.get_close_matches(str(k), sorted(allowed), n=1)
+            hint = f"; did you mean '{near[0]}'?" if near else f"; allowed: {', '.join(sorted(allowed))}"
+            raise InputError(f"{where}.{k}" if where else str(k), f"unknown key{hint}")
