@@ -137,7 +137,7 @@ def contact_result():
 
 
 def test_contact_arrays_in_vtu_and_npz(tmp_path: Path, contact_result) -> None:
-    from shellcontact.io import write_npz, write_vtu
+    from shellcontact.writers import write_npz, write_vtu
 
     result, cand, pressure = contact_result
     nv = result.solution.space.mesh.nvertices
@@ -157,7 +157,7 @@ def test_contact_arrays_in_vtu_and_npz(tmp_path: Path, contact_result) -> None:
 
 
 def test_contact_figures_and_report(tmp_path: Path, contact_result) -> None:
-    from shellcontact.io import write_outputs
+    from shellcontact.outputs import write_outputs
 
     result, _, _ = contact_result
     stub, result.contact = result.contact, None
@@ -215,7 +215,7 @@ def test_contact_vertex_arrays_gather_operator_rows() -> None:
     from shellcontact import load_case
     from shellcontact.analysis import case_mesh
     from shellcontact.contact import contact_operator
-    from shellcontact.io import contact_vertex_arrays
+    from shellcontact.fields import contact_vertex_arrays
     from shellcontact.punches import place_punches
     from shellcontact.spaces import ShellSpace
 

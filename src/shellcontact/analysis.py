@@ -63,7 +63,7 @@ class Timer:
         return _Stage()
 
     def total(self) -> dict[str, float]:
-        """Seconds per stage; ``output`` is 0 until the result is written (io.write_outputs adds it)."""
+        """Seconds per stage; ``output`` is 0 until the result is written (outputs.write_outputs adds it)."""
         return {"output": 0.0, **self.times, "total": time.perf_counter() - self._t0}
 
 
@@ -125,26 +125,26 @@ class Result:
     punches: list[Punch] = field(default_factory=list)
     discretization: Discretization | None = None  # the reduced operators (e.g. ``.qp()``)
 
-    # -- outputs (thin wrappers over io, plots and report) ---------------------------------
+    # -- outputs (thin wrappers over outputs, writers, fields, plots and report) ---------------------------------
     def write(self, directory, **kw) -> dict:
         """Write the run directory (summary.json, fields.vtu, results.npz, figures, report.html)."""
-        from .io import write_outputs
+        from .outputs import write_outputs
 
         return write_outputs(self, directory, **kw)
 
     def to_vtu(self, path):
         """The 3D shell surface with all vertex fields, for ParaView (via meshio)."""
-        from .io import write_vtu
+        from .writers import write_vtu
 
         return write_vtu(self, path)
 
     def to_npz(self, path):
-        from .io import write_npz
+        from .writers import write_npz
 
         return write_npz(self, path)
 
     def vertex_fields(self) -> dict[str, np.ndarray]:
-        from .io import vertex_fields
+        from .fields import vertex_fields
 
         return vertex_fields(self)
 

@@ -135,7 +135,8 @@ def _print_summary(con: Console, s: dict) -> None:
 # -- commands ----------------------------------------------------------------------------------------------
 def cmd_run(args: argparse.Namespace, con: Console) -> int:
     from .analysis import solve
-    from .io import check_output_dir, clear_run_files, write_outputs
+    from .files import check_output_dir
+    from .outputs import clear_run_files, write_outputs
 
     case, sets = _load(args)
     out = Path(args.output) if args.output else _default_dir(args.case, "-out")
@@ -182,7 +183,7 @@ def _lazy(module: str, func: str, what: str):
 
 
 def cmd_demo(args: argparse.Namespace, con: Console) -> int:
-    from .io import check_output_dir
+    from .files import check_output_dir
 
     out = Path(args.output)
     check_output_dir(out, args.force)
@@ -200,7 +201,7 @@ def cmd_verify(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
-    from .io import check_output_dir
+    from .files import check_output_dir
     from .studies import clear_sweep_dir, parse_values, sweep
 
     values = parse_values(args.values)
@@ -221,7 +222,7 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_convergence(args: argparse.Namespace, con: Console) -> int:
-    from .io import check_output_dir
+    from .files import check_output_dir
     from .studies import convergence, convergence_table
 
     case, _ = _load(args)

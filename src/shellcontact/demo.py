@@ -15,7 +15,8 @@ from pathlib import Path
 
 from .analysis import Result, solve
 from .case import load_case
-from .io import atomic_write_text, write_json, write_outputs
+from .files import atomic_write_text, write_json
+from .outputs import write_outputs
 
 CASE_FILE = "paper_panel.toml"
 #: the paper's three formulations, in its order (registered in solvers.methods)

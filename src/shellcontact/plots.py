@@ -18,7 +18,8 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.tri import Triangulation
 
-from .io import atomic_write_bytes, contact_vertex_fields
+from .fields import contact_vertex_fields
+from .files import atomic_write_bytes
 
 DPI = 110
 

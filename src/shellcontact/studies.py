@@ -26,7 +26,7 @@ from typing import Any
 
 from .case import Case, case_from_dict
 from .errors import InputError
-from .io import atomic_write_bytes, atomic_write_text, write_json
+from .files import atomic_write_bytes, atomic_write_text, write_json
 from .overrides import apply_overrides, split_path
 
 log = logging.getLogger("shellcontact")

@@ -1,0 +1,140 @@
+"""Values on the mesh vertices of a ``Result``: displacements, resultants, contact arrays.
+
+Pure functions of a result (no files, no figures); every writer and figure takes its per-vertex
+arrays from here. The arrays are listed in docs/outputs.md.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: per-vertex contact arrays, in the order they are written
+CONTACT_FIELDS = ("contact_status", "contact_pressure", "gap", "contact_force", "contact_force_vector")
+
+
+def contact_vertex_arrays(
+    op, Lam: np.ndarray, active: np.ndarray | None = None, gap: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
+    """Per-vertex contact arrays from a ``contact.ContactOperator`` and the row values of a solve.
+
+    Rows of all punches are gathered on their mesh vertex (edge-midpoint rows are left out):
+    ``contact_status`` 1 if any row at the vertex is active, 0 if it is only a candidate, −1 if
+    no row; ``contact_pressure`` = ``op.vertex_pressure(Lam)``; ``contact_force`` = Σ Λ_i;
+    ``contact_force_vector`` (nv, 3) = Σ Λ_i ∇Z(M_i); ``gap`` = min over the rows of G + BU (NaN
+    where no row). On a full cylinder the φ = β copies take the values of their φ = α twins.
+    """
+    nv = int(op.nvertices)
+    Lam = np.asarray(Lam, float)
+    r = np.nonzero(np.asarray(op.vertex) >= 0)[0]
+    v = np.asarray(op.vertex)[r]
+    act = (op.active(Lam) if active is None else np.asarray(active, bool))[r]
+    status = np.full(nv, -1, dtype=np.int64)
+    np.maximum.at(status, v, act.astype(np.int64))
+    force = np.zeros(nv)
+    np.add.at(force, v, Lam[r])
+    fvec = np.zeros((nv, 3))
+    np.add.at(fvec, v, (np.asarray(op.grad)[:, r] * Lam[r]).T)
+    out = {
+        "contact_status": status,
+        "contact_pressure": np.asarray(op.vertex_pressure(Lam), float),
+        "contact_force": force,
+        "contact_force_vector": fvec,
+    }
+    if gap is not None:
+        g = np.full(nv, np.inf)
+        np.minimum.at(g, v, np.asarray(gap, float)[r])
+        out["gap"] = np.where(np.isfinite(g), g, np.nan)
+    twins = getattr(op, "twins", None)
+    if twins is not None:
+        slave, master = twins
+        for k in ("contact_status", "contact_force", "contact_force_vector", "gap"):
+            if k in out:
+                out[k][slave] = out[k][master]
+    return out
+
+
+def contact_vertex_fields(result) -> dict[str, np.ndarray]:
+    """Per-vertex contact arrays of ``result.contact`` (empty dict without contact).
+
+    Contract (docs/outputs.md): ``result.contact.vertex_fields()`` returns arrays of length
+    nv (mesh vertices) named in CONTACT_FIELDS — ``contact_status`` (1 active, 0 inactive
+    candidate, −1 not a candidate), ``contact_pressure`` (Λ_i/ω_i, 0 off contact), ``gap``
+    (G + BU, NaN off the candidate set), ``contact_force`` (nodal Λ_i), optionally
+    ``contact_force_vector`` (nv, 3). ``contact_vertex_arrays(op, Lam, active, gap)`` builds exactly
+    these from a ContactOperator; it is used directly when the object has ``operator`` and
+    ``Lambda`` (and optionally ``active``, ``gap``) attributes. Otherwise,
+    attributes ``status``/``active``, ``pressure``, ``gap``, ``forces``/``Lambda`` are used, scattered
+    to all vertices through ``vertices`` (candidate vertex indices) when they are shorter than nv.
+    Missing fields are skipped, never invented.
+    """
+    c = getattr(result, "contact", None)
+    if c is None:
+        return {}
+    nv = result.solution.space.mesh.nvertices
+    if hasattr(c, "vertex_fields"):
+        raw = dict(c.vertex_fields())
+    elif getattr(c, "operator", None) is not None and getattr(c, "Lambda", None) is not None:
+        gap = getattr(c, "gap", None)
+        gap = gap() if callable(gap) else gap
+        return contact_vertex_arrays(c.operator, c.Lambda, getattr(c, "active", None), gap)
+    else:
+        raw = {}
+        for name, attrs in (
+            ("contact_status", ("status", "active")),
+            ("contact_pressure", ("pressure",)),
+            ("gap", ("gap",)),
+            ("contact_force", ("forces", "nodal_forces", "Lambda")),
+        ):
+            for a in attrs:
+                v = getattr(c, a, None)
+                if callable(v):
+                    v = v()  # e.g. ContactSolution.gap()
+                if v is not None:
+                    raw[name] = v
+                    break
+    idx = getattr(c, "vertices", None)
+    out: dict[str, np.ndarray] = {}
+    for name, arr in raw.items():
+        arr = np.asarray(arr)
+        if arr.dtype == bool:
+            arr = arr.astype(np.int8)
+        if arr.shape[:1] != (nv,):
+            if idx is None or arr.shape[:1] != np.shape(idx):
+                continue  # cannot place it on the mesh: skip rather than guess
+            fill = {"contact_status": -1, "contact_pressure": 0.0, "contact_force": 0.0}.get(name, np.nan)
+            full = np.full((nv, *arr.shape[1:]), fill, dtype=np.result_type(arr.dtype, type(fill)))
+            full[np.asarray(idx)] = arr
+            arr = full
+        out[name] = arr
+    return out
+
+
+# -- fields on the vertices --------------------------------------------------------------------------
+def vertex_fields(result) -> dict[str, np.ndarray]:
+    """Arrays at the mesh vertices: x, phi_deg, u, v, w, displacement (nv, 3), deformed (nv, 3),
+    resultants N11 … M12 and the contact fields when present."""
+    sol = result.solution
+    mesh = sol.space.mesh
+    x, s = mesh.p
+    phi = s / sol.shell.radius
+    d = sol.evaluate(x, phi)  # every quantity at once: one point location for all fields below
+    disp = sol.displacement(x, phi, values=d)
+    out: dict[str, np.ndarray] = {
+        "x": x.copy(),
+        "phi_deg": np.degrees(phi),
+        "u": d["u"],
+        "v": d["v"],
+        "w": d["w"],
+        "displacement": disp.T.copy(),
+        "deformed": (sol.shell.point(x, phi) + disp).T.copy(),
+        "thickness": sol.shell.t(x, phi),
+    }
+    out.update({k: np.asarray(val, float) for k, val in sol.resultants(x, phi, values=d).items()})
+    out.update(contact_vertex_fields(result))
+    return out
+
+
+def reference_points(result) -> np.ndarray:
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    return sol.shell.point(x, s / sol.shell.radius).T.copy()

@@ -1,0 +1,81 @@
+"""The run directory: summary.json, fields.vtu, results.npz, PNG figures and report.html.
+
+``write_outputs(result, directory, ...)`` writes it; ``RUN_FILES`` names every file it may contain,
+and ``clear_run_files`` removes exactly those (``--force``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from .fields import vertex_fields
+from .files import atomic_write_bytes, write_json
+from .report import write_report
+from .writers import write_npz, write_vtu
+
+#: files a run directory may contain; ``--force`` removes exactly these before writing
+RUN_FILES = (
+    "summary.json",
+    "fields.vtu",
+    "results.npz",
+    "deflection.png",
+    "deformed.png",
+    "pressure.png",
+    "pressure_profiles.png",
+    "report.html",
+)
+
+
+def clear_run_files(path: str | Path) -> None:
+    """Remove the files a previous run wrote (only those named in RUN_FILES)."""
+    for name in RUN_FILES:
+        (Path(path) / name).unlink(missing_ok=True)
+
+
+def write_outputs(
+    result,
+    directory: str | Path,
+    summary: dict[str, Any] | None = None,
+    *,
+    figures: bool = True,
+    report: bool = True,
+    log: Callable[[str], None] | None = None,
+    profile_x: float | None = None,
+    profile_phi: float | None = None,
+) -> dict[str, Path]:
+    """Write the run directory: summary.json, fields.vtu, results.npz, PNG figures, report.html.
+
+    ``profile_x``/``profile_phi`` (degrees) choose the pressure-profile lines.
+    Returns the written files by name. ``summary`` defaults to ``result.summary()``; the time
+    spent here is added to ``summary["timings"]["output"]`` (and ``total``).
+    """
+    t0 = time.perf_counter()
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    summary = result.summary() if summary is None else summary
+    written: dict[str, Path] = {}
+    fields = vertex_fields(result)
+    written["fields.vtu"] = write_vtu(result, directory / "fields.vtu", fields)
+    written["results.npz"] = write_npz(result, directory / "results.npz", fields)
+    pngs: dict[str, bytes] = {}
+    if figures:
+        from . import plots  # matplotlib is imported only when figures are drawn
+
+        pngs = plots.run_figures(result, fields, profile_x, profile_phi)
+        for name, data in pngs.items():
+            atomic_write_bytes(directory / name, data)
+            written[name] = directory / name
+    timings = summary.setdefault("timings", {})
+    timings["output"] = timings.get("output", 0.0) + time.perf_counter() - t0
+    timings["total"] = timings.get("total", 0.0) + timings["output"]
+    write_json(directory / "summary.json", summary)
+    written["summary.json"] = directory / "summary.json"
+    if report:
+        written["report.html"] = write_report(result, directory / "report.html", summary=summary, figures=pngs)
+    if log:
+        for name in written:
+            log(f"wrote {directory / name}")
+    return written
