@@ -19,6 +19,7 @@ from shellcontact import model
 from shellcontact.errors import InputError
 from shellcontact.geometry import Shell, rigid_motion, to_local
 from shellcontact.linalg import factorize
+from shellcontact.material import Isotropic
 from shellcontact.mesh import structured
 from shellcontact.model import element_chunks, field_derivatives
 from shellcontact.spaces import QUANTITIES, ShellSpace
@@ -28,8 +29,7 @@ PANEL = Shell(
     radius=2.0,
     length=3.0,
     thickness=0.1,
-    young=1.0,
-    poisson=0.3,
+    material=Isotropic(1.0, 0.3),
     alpha=math.radians(-40.0),
     beta=math.radians(70.0),
     x_start=-1.0,
@@ -207,8 +207,7 @@ def test_diaphragm_roof_with_a_symmetry_plane_is_accepted():
         radius=25.0,
         length=25.0,
         thickness=0.25,
-        young=4.32e8,
-        poisson=0.0,
+        material=Isotropic(4.32e8, 0.0),
         alpha=math.radians(50.0),
         beta=math.radians(90.0),
         x_start=0.0,
@@ -222,7 +221,9 @@ def test_diaphragm_roof_with_a_symmetry_plane_is_accepted():
 # ---------------------------------------------------------------------------------------------
 def test_argyris_and_p2_bases_equal_scikit_fem():
     sh = Shell(
-        radius=1.0, length=1.0, thickness=0.01, young=1.0, poisson=0.3, alpha=0.0, beta=math.radians(40.0), x_start=0.0
+        radius=1.0, length=1.0, thickness=0.01,
+        material=Isotropic(1.0, 0.3),
+        alpha=0.0, beta=math.radians(40.0), x_start=0.0,
     )
     m = structured(sh, 2, 2)
     space = ShellSpace(m)
@@ -269,7 +270,7 @@ def test_argyris_and_p2_bases_equal_scikit_fem():
 # 3. manufactured solution under nested refinement
 # ---------------------------------------------------------------------------------------------
 MS_SHELL = Shell(
-    radius=1.5, length=2.0, thickness=0.1, young=1.0, poisson=0.3, alpha=0.0, beta=math.radians(60.0), x_start=0.0
+    radius=1.5, length=2.0, thickness=0.1, material=Isotropic(1.0, 0.3), alpha=0.0, beta=math.radians(60.0), x_start=0.0
 )
 
 

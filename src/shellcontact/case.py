@@ -22,11 +22,13 @@ import numpy as np
 from .errors import InputError
 from .geometry import Shell
 from .loads import LineLoad, Loads, PointLoad
+from .material import MATERIALS, Isotropic, Material
 from .mesh import PATTERNS, ShellMesh, from_file, graded_nodes, structured
 from .supports import Supports
 
 SCHEMA: dict[str, set[str]] = {
     "shell": {"radius", "length", "angle", "full", "thickness", "young", "poisson", "x_start"},
+    "material": {"model", "young", "poisson", "e1", "e2", "g12", "nu12"},
     "supports": {"x_min", "x_max", "phi_min", "phi_max"},
     "mesh": {"nx", "nphi", "refine", "pattern", "file", "grading", "x_lines", "phi_lines"},
     "loads": {"normal", "surface", "point", "line"},
@@ -125,7 +127,31 @@ class Case:
     raw: dict[str, Any] = field(default_factory=dict)
 
 
-def parse_shell(d: dict) -> Shell:
+def parse_material(shell_table: dict, material_table: dict | None) -> Material:
+    """The material (MODEL.md §3): a [material] table, or shell.young / shell.poisson (isotropic)."""
+    given = [f"shell.{k}" for k in ("young", "poisson") if k in shell_table]
+    if material_table is None:
+        try:
+            return Isotropic(number(shell_table, "young", "shell"), number(shell_table, "poisson", "shell"))
+        except InputError as exc:  # name the key the user wrote
+            raise InputError(exc.field.replace("material.", "shell.", 1), exc.message) from None
+    if not isinstance(material_table, dict):
+        raise InputError("material", "must be a table")
+    if given:
+        raise InputError("material", f"the material is given twice, in [material] and as {' and '.join(given)}; "
+                         "keep one (a [material] table, or shell.young and shell.poisson)")
+    _unknown("material", material_table, SCHEMA["material"])
+    model = material_table.get("model", "isotropic")
+    if not isinstance(model, str) or model not in MATERIALS:
+        raise InputError("material.model", f"must be one of {', '.join(map(repr, MATERIALS))}, got {model!r}")
+    keys = [f.name for f in dataclasses.fields(MATERIALS[model])]
+    for k in material_table:
+        if k not in ("model", *keys):
+            raise InputError(f"material.{k}", f"is not a key of model = {model!r}, whose keys are {', '.join(keys)}")
+    return MATERIALS[model](*(number(material_table, k, "material") for k in keys))
+
+
+def parse_shell(d: dict, material_table: dict | None = None) -> Shell:
     if not isinstance(d, dict):
         raise InputError("shell", "must be a table")
     _unknown("shell", d, SCHEMA["shell"])
@@ -148,8 +174,7 @@ def parse_shell(d: dict) -> Shell:
         radius=number(d, "radius", "shell", positive=True),
         length=number(d, "length", "shell", positive=True),
         thickness=th,
-        young=number(d, "young", "shell", positive=True),
-        poisson=number(d, "poisson", "shell"),
+        material=parse_material(d, material_table),
         alpha=math.radians(alpha),
         beta=math.radians(beta),
         full=full,
@@ -271,7 +296,7 @@ def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
     for sec in REQUIRED:
         if sec not in data:
             raise InputError(sec, f"section [{sec}] is required")
-    shell = parse_shell(data["shell"])
+    shell = parse_shell(data["shell"], data.get("material"))
     sup = data.get("supports", {})
     if not isinstance(sup, dict):
         raise InputError("supports", "must be a table")
