@@ -190,4 +190,4 @@ class Orthotropic(Material):
         return T[:, None] * self.plane_stress * T[None, :]
 
 
-MATERIALS: dict[str, type[Material]] = {"isotropic": Isotropic, "orthotropic": Orthotropic}
+MATERIALS: dict[str, type[Material]] = {cls.model: cls for cls in (Isotropic, Orthotropic)}  # [material] model
