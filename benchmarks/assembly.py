@@ -32,14 +32,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 
 GOAL = 30.0
-PANEL = dict(radius=1.0, length=2.0, thickness=0.01, young=1.0, poisson=0.3, alpha=0.0, beta=1.0)
+PANEL = dict(radius=1.0, length=2.0, thickness=0.01, alpha=0.0, beta=1.0)
+MATERIAL = dict(young=1.0, poisson=0.3)
 
 
 def _mesh(n: int):
     from shellcontact.geometry import Shell
+    from shellcontact.material import Isotropic
     from shellcontact.mesh import structured
 
-    return structured(Shell(**PANEL), n, n)
+    return structured(Shell(**PANEL, material=Isotropic(**MATERIAL)), n, n)
 
 
 def _assemble(mesh, st: common.Stages):
@@ -86,7 +88,7 @@ def worker_ours(n: int, reps: int) -> dict:
 def _forms():
     from skfem import BilinearForm
 
-    a, mu, t, E = PANEL["radius"], PANEL["poisson"], PANEL["thickness"], PANEL["young"]
+    a, mu, t, E = PANEL["radius"], MATERIAL["poisson"], PANEL["thickness"], MATERIAL["young"]
     B, D = E * t / (1 - mu**2), E * t**3 / (12 * (1 - mu**2))
 
     def energy(e, f):

@@ -27,17 +27,19 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 
-PANEL = dict(radius=1.0, length=2.0, thickness=0.01, young=1.0, poisson=0.3, alpha=0.0, beta=1.0)
+PANEL = dict(radius=1.0, length=2.0, thickness=0.01, alpha=0.0, beta=1.0)
+MATERIAL = dict(young=1.0, poisson=0.3)
 
 
 def build_system(n: int):
     from shellcontact import model
     from shellcontact.geometry import Shell
+    from shellcontact.material import Isotropic
     from shellcontact.mesh import structured
     from shellcontact.spaces import ShellSpace
     from shellcontact.supports import Reduction, Supports
 
-    space = ShellSpace(structured(Shell(**PANEL), n, n))
+    space = ShellSpace(structured(Shell(**PANEL, material=Isotropic(**MATERIAL)), n, n))
     A = model.stiffness(space)
     return space, Reduction.build(space, Supports()).reduce_matrix(A)
 

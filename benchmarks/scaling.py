@@ -25,7 +25,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 
-PANEL = dict(radius=1.0, length=2.0, thickness=0.01, young=1.0, poisson=0.3, alpha=0.0, beta=1.0)
+PANEL = dict(radius=1.0, length=2.0, thickness=0.01, alpha=0.0, beta=1.0)
+MATERIAL = dict(young=1.0, poisson=0.3)
 STAGES = ("mesh", "space + basis", "assembly", "reduction", "factorization", "solve")
 
 
@@ -34,6 +35,7 @@ def worker(n: int, backend: str) -> dict:
 
     from shellcontact import linalg, model
     from shellcontact.geometry import Shell
+    from shellcontact.material import Isotropic
     from shellcontact.mesh import structured
     from shellcontact.spaces import ShellSpace
     from shellcontact.supports import Reduction, Supports
@@ -41,7 +43,7 @@ def worker(n: int, backend: str) -> dict:
     linalg.factorize(sp.identity(4, format="csr")).solve(np.ones(4))  # load MKL/CHOLMOD outside the timings
     st = common.Stages(trace_memory=True)
     with st.stage("mesh"):
-        m = structured(Shell(**PANEL), n, n)
+        m = structured(Shell(**PANEL, material=Isotropic(**MATERIAL)), n, n)
     with st.stage("space + basis"):
         space = ShellSpace(m)
         _ = space.argyris

@@ -104,7 +104,12 @@ class ClampedPressurizedCylinder:
 def _exact(case: sc.Case) -> ClampedPressurizedCylinder:
     sh = case.shell
     return ClampedPressurizedCylinder(
-        a=sh.radius, t=float(sh.thickness), H=sh.length / 2, E=sh.young, mu=sh.poisson, p=float(case.loads.normal)
+        a=sh.radius,
+        t=float(sh.thickness),
+        H=sh.length / 2,
+        E=sh.material.young,
+        mu=sh.material.poisson,
+        p=float(case.loads.normal),
     )
 
 

@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from shellcontact import model
 from shellcontact.errors import InputError
 from shellcontact.geometry import Shell, rigid_motion, to_local
 from shellcontact.linalg import factorize
+from shellcontact.material import Isotropic, Orthotropic
 from shellcontact.mesh import structured
 from shellcontact.model import element_chunks, field_derivatives
 from shellcontact.spaces import QUANTITIES, ShellSpace
@@ -28,8 +30,7 @@ PANEL = Shell(
     radius=2.0,
     length=3.0,
     thickness=0.1,
-    young=1.0,
-    poisson=0.3,
+    material=Isotropic(1.0, 0.3),
     alpha=math.radians(-40.0),
     beta=math.radians(70.0),
     x_start=-1.0,
@@ -207,8 +208,7 @@ def test_diaphragm_roof_with_a_symmetry_plane_is_accepted():
         radius=25.0,
         length=25.0,
         thickness=0.25,
-        young=4.32e8,
-        poisson=0.0,
+        material=Isotropic(4.32e8, 0.0),
         alpha=math.radians(50.0),
         beta=math.radians(90.0),
         x_start=0.0,
@@ -222,7 +222,9 @@ def test_diaphragm_roof_with_a_symmetry_plane_is_accepted():
 # ---------------------------------------------------------------------------------------------
 def test_argyris_and_p2_bases_equal_scikit_fem():
     sh = Shell(
-        radius=1.0, length=1.0, thickness=0.01, young=1.0, poisson=0.3, alpha=0.0, beta=math.radians(40.0), x_start=0.0
+        radius=1.0, length=1.0, thickness=0.01,
+        material=Isotropic(1.0, 0.3),
+        alpha=0.0, beta=math.radians(40.0), x_start=0.0,
     )
     m = structured(sh, 2, 2)
     space = ShellSpace(m)
@@ -269,8 +271,10 @@ def test_argyris_and_p2_bases_equal_scikit_fem():
 # 3. manufactured solution under nested refinement
 # ---------------------------------------------------------------------------------------------
 MS_SHELL = Shell(
-    radius=1.5, length=2.0, thickness=0.1, young=1.0, poisson=0.3, alpha=0.0, beta=math.radians(60.0), x_start=0.0
+    radius=1.5, length=2.0, thickness=0.1, material=Isotropic(1.0, 0.3), alpha=0.0, beta=math.radians(60.0), x_start=0.0
 )
+# the same rates for an orthotropic law (material.py), here a strongly hoop-stiff one
+MS_MATERIALS = {"isotropic": Isotropic(1.0, 0.3), "orthotropic": Orthotropic(e1=1.0, e2=3.0, g12=0.2, nu12=0.1)}
 
 
 def _f1(kind: str, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -348,13 +352,14 @@ def _norm(d: dict[str, float], field: str, order: int) -> float:
     return math.sqrt(sum(d[field + k] for k in keys + extra))
 
 
-def test_manufactured_solution_rates(rates):
+@pytest.mark.parametrize("material", sorted(MS_MATERIALS))
+def test_manufactured_solution_rates(rates, material):
     """Clamped panel, U smooth: u, v in H¹ and the energy norm converge like h², as P2 allows.
 
     The load is a(U, φ_i) with the exact derivatives, so U_h is the a-projection of U and the
     energy error is the best approximation error, dominated by the P2 fields (O(h²)).
     """
-    sh = MS_SHELL
+    sh = replace(MS_SHELL, material=MS_MATERIALS[material])
     exact = manufactured(sh)
     base = structured(sh, 2, 2)
     rows = []
@@ -398,9 +403,10 @@ def test_manufactured_solution_rates(rates):
     assert R[-1, 5] < 1e-2
 
 
-def test_argyris_bending_alone_converges_at_h4_in_h2(rates):
+@pytest.mark.parametrize("material", sorted(MS_MATERIALS))
+def test_argyris_bending_alone_converges_at_h4_in_h2(rates, material):
     """Bending energy only, w alone, clamped: the Argyris P5 element gives O(h⁴) in H², O(h⁵) in H¹."""
-    sh = MS_SHELL
+    sh = replace(MS_SHELL, material=MS_MATERIALS[material])
     exact = manufactured(sh, with_membrane=False)
     base = structured(sh, 2, 2)
     rows = []

@@ -9,6 +9,7 @@ import scipy.sparse as sp
 from shellcontact import linalg, model
 from shellcontact.errors import InputError, SolverError
 from shellcontact.geometry import Shell
+from shellcontact.material import Isotropic
 from shellcontact.mesh import structured
 from shellcontact.spaces import ShellSpace
 from shellcontact.supports import Reduction, Supports
@@ -19,7 +20,7 @@ BACKENDS = linalg.available_backends()
 @pytest.fixture(scope="module")
 def shell_system():
     """Clamped thin panel: a fourth-order stiffness with a wide diagonal range (t/a = 1/200)."""
-    sh = Shell(radius=2.0, length=3.0, thickness=0.01, young=7e10, poisson=0.3, alpha=0.0, beta=1.2)
+    sh = Shell(radius=2.0, length=3.0, thickness=0.01, material=Isotropic(7e10, 0.3), alpha=0.0, beta=1.2)
     space = ShellSpace(structured(sh, 8, 6))
     A = model.stiffness(space)
     red = Reduction.build(space, Supports())

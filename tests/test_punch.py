@@ -12,6 +12,7 @@ from shellcontact.analysis import case_mesh
 from shellcontact.case import case_from_dict
 from shellcontact.errors import InputError
 from shellcontact.geometry import Shell
+from shellcontact.material import Isotropic
 from shellcontact.punches import (
     Cylinder,
     Ellipsoid,
@@ -31,12 +32,14 @@ RNG = np.random.default_rng(7)
 
 def panel() -> Shell:
     return Shell(
-        radius=1.0, length=2.0, thickness=0.02, young=1e3, poisson=0.3, alpha=math.radians(45), beta=math.radians(135)
+        radius=1.0, length=2.0, thickness=0.02,
+        material=Isotropic(1e3, 0.3),
+        alpha=math.radians(45), beta=math.radians(135),
     )
 
 
 def pipe() -> Shell:
-    return Shell(radius=1.0, length=2.0, thickness=0.02, young=1e3, poisson=0.3, full=True)
+    return Shell(radius=1.0, length=2.0, thickness=0.02, material=Isotropic(1e3, 0.3), full=True)
 
 
 def unit(v):
@@ -363,7 +366,9 @@ SPHERE = {"shape": "sphere", "center": [0.0, 0.0, 1.5], "radius": 0.3}
 )
 def test_bad_input_names_the_key(raw, field):
     sh = Shell(
-        radius=1.0, length=2.0, thickness=0.002, young=1e3, poisson=0.3, alpha=math.radians(45), beta=math.radians(135)
+        radius=1.0, length=2.0, thickness=0.002,
+        material=Isotropic(1e3, 0.3),
+        alpha=math.radians(45), beta=math.radians(135),
     )
     with pytest.raises(InputError) as e:
         place_punches(parse_punches([raw]), sh)

@@ -27,6 +27,7 @@ from shellcontact.errors import InputError
 from shellcontact.geometry import Shell, rigid_motion
 from shellcontact.linalg import factorize
 from shellcontact.loads import LineLoad, Loads, PointLoad, load_vector
+from shellcontact.material import Isotropic
 from shellcontact.mesh import structured
 from shellcontact.results import ShellSolution
 from shellcontact.spaces import ShellSpace
@@ -192,8 +193,7 @@ PANEL = Shell(
     radius=2.0,
     length=3.0,
     thickness=0.05,
-    young=1.0e3,
-    poisson=0.3,
+    material=Isotropic(1.0e3, 0.3),
     alpha=math.radians(20.0),
     beta=math.radians(110.0),
     x_start=-1.0,

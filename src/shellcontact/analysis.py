@@ -68,10 +68,14 @@ class Timer:
 
 
 def default_penalty(case: Case) -> float:
-    """ε = 1e-6 · a²/(E t): springs 10⁶ times stiffer than the membrane ring stiffness E t/a² of the shell."""
+    """ε = 1e-6 · a²/(E₂ t): springs 10⁶ times stiffer than the membrane ring stiffness E₂ t/a² of the shell.
+
+    E₂ is the material's hoop modulus σ22/ε22 at σ11 = σ12 = 0: Young's modulus E of an isotropic
+    shell, the circumferential modulus E2 of an orthotropic one.
+    """
     sh = case.shell
     t = float(np.mean(sh.t(np.array([sh.x_min, sh.x_max]), np.array([sh.alpha, sh.beta]))))
-    return 1e-6 * sh.radius**2 / (sh.young * t)
+    return 1e-6 * sh.radius**2 / (sh.material.hoop_modulus * t)
 
 
 @dataclass

@@ -21,6 +21,7 @@ from typing import Any
 from .errors import InputError
 from .geometry import Shell
 from .loads import LineLoad, Loads, PointLoad
+from .material import MATERIALS, Material
 from .mesh import PATTERNS, MeshSpec
 from .options import SolverOptions
 from .punches import PUNCH, SHAPES, ZONE, PunchSpec, parse_punches
@@ -41,8 +42,26 @@ SHELL = Table("shell", (
         default=False),
     Key("thickness", "number_or_function", "thickness t = 2e; a function is sampled on a 9 × 9 grid at load "
         "time", unit="length", lo=0.0, open=("lo",), allowed="0 < t < radius, or " + _NUMBER_OR_FUNCTION),
-    Key("young", "number", "Young's modulus E", unit="force/length²", lo=0.0, open=("lo",)),
-    Key("poisson", "number", "Poisson's ratio μ", lo=-1.0, hi=0.5, open=("lo", "hi")),
+    Key("young", "number", "Young's modulus E of an isotropic shell (or `[material]`)", unit="force/length²",
+        lo=0.0, open=("lo",), default=None, default_doc="required without `[material]`"),
+    Key("poisson", "number", "Poisson's ratio μ of an isotropic shell (or `[material]`)", lo=-1.0, hi=0.5,
+        open=("lo", "hi"), default=None, default_doc="required without `[material]`"),
+))
+
+MATERIAL = Table("material", (
+    Key("model", "choice", "the material law (MODEL.md §3)", choices=tuple(MATERIALS), default="isotropic"),
+    Key("young", "number", "isotropic: Young's modulus E", unit="force/length²", lo=0.0, open=("lo",),
+        default=None, default_doc="required (isotropic)"),
+    Key("poisson", "number", "isotropic: Poisson's ratio μ", lo=-1.0, hi=0.5, open=("lo", "hi"), default=None,
+        default_doc="required (isotropic)"),
+    Key("e1", "number", "orthotropic: modulus along the axis x", unit="force/length²", lo=0.0, open=("lo",),
+        default=None, default_doc="required (orthotropic)"),
+    Key("e2", "number", "orthotropic: modulus along the circumference", unit="force/length²", lo=0.0,
+        open=("lo",), default=None, default_doc="required (orthotropic)"),
+    Key("g12", "number", "orthotropic: in-plane shear modulus", unit="force/length²", lo=0.0, open=("lo",),
+        default=None, default_doc="required (orthotropic)"),
+    Key("nu12", "number", "orthotropic: Poisson's ratio ν12 (ν21 = ν12 E2/E1)", default=None,
+        default_doc="required (orthotropic)", allowed="ν12² E2/E1 < 1"),
 ))
 
 SUPPORTS_TABLE = Table("supports", tuple(
@@ -114,7 +133,7 @@ SOLVER = Table("solver", (
         "penalised equation)", lo=0.0, hi=1.0, open=("lo", "hi"), default=SolverOptions.tolerance),
     Key("penalty", "number", "ε of the penalty method: springs of stiffness 1/ε per unit area; the penetration is "
         "ε × pressure. Used only by `\"penalty\"`", unit="length/pressure", lo=0.0, open=("lo",), default=None,
-        default_doc="1e-6 · a²/(E t)"),
+        default_doc="1e-6 · a²/(E t) (orthotropic: E2 for E)"),
     Key("continuation", "numbers", "penalty values solved first, in order, each warm-starting the next, before "
         "`penalty`", unit="length/pressure", lo=0.0, open=("lo",), default=()),
     Key("max_iterations", "integer", "iteration limit; the solver then fails with its residuals", lo=1, default=None,
@@ -135,7 +154,8 @@ SOLVER = Table("solver", (
 
 #: the case file's top-level tables; ``[shell]`` is required
 CASE = Table("", (
-    Key("shell", "table", "geometry and material", table=SHELL),
+    Key("shell", "table", "geometry (and an isotropic material)", table=SHELL),
+    Key("material", "table", "the material law", table=MATERIAL, default=None),
     Key("supports", "table", "edge conditions", table=SUPPORTS_TABLE, default=None),
     Key("mesh", "table", "the triangulation", table=MESH, default=None),
     Key("loads", "table", "applied loads", table=LOADS, default=None),
@@ -146,9 +166,9 @@ CASE = Table("", (
 
 #: the tables of docs/case-file.md, by the name of their marker
 DOC_TABLES: dict[str, Table] = {
-    "shell": SHELL, "supports": SUPPORTS_TABLE, "mesh": MESH, "mesh.grading": GRADING, "loads": LOADS,
-    "loads.point": POINT_LOAD, "loads.line": LINE_LOAD, "probes": PROBE, "solver": SOLVER, "punch": PUNCH,
-    "punch.zone": ZONE,
+    "shell": SHELL, "material": MATERIAL, "supports": SUPPORTS_TABLE, "mesh": MESH, "mesh.grading": GRADING,
+    "loads": LOADS, "loads.point": POINT_LOAD, "loads.line": LINE_LOAD, "probes": PROBE, "solver": SOLVER,
+    "punch": PUNCH, "punch.zone": ZONE,
     **{f"punch.{name}": Table(f"punch.{name}", shape.keys, shape.doc) for name, shape in SHAPES.items()},
 }
 
@@ -168,7 +188,37 @@ class Case:
     raw: dict[str, Any] = field(default_factory=dict)
 
 
-def parse_shell(d: Any) -> Shell:
+def parse_material(shell: dict[str, Any], raw: Any) -> Material:
+    """The material (MODEL.md §3): a ``[material]`` table, or ``shell.young``/``shell.poisson`` (isotropic).
+
+    ``shell`` holds the parsed ``[shell]`` values.
+    """
+    given = [f"shell.{k}" for k in ("young", "poisson") if shell[k] is not None]
+    if raw is None:
+        for k in ("young", "poisson"):
+            if shell[k] is None:
+                raise InputError(f"shell.{k}", "is required (or give a [material] table)")
+        try:
+            return MATERIALS["isotropic"](shell["young"], shell["poisson"])
+        except InputError as exc:  # name the key the user wrote
+            raise InputError(exc.field.replace("material.", "shell.", 1), exc.message) from None
+    v = MATERIAL.parse(raw)
+    if given:
+        raise InputError("material", f"the material is given twice, in [material] and as {' and '.join(given)}; "
+                         "keep one (a [material] table, or shell.young and shell.poisson)")
+    cls = MATERIALS[v["model"]]
+    keys = [f.name for f in dataclasses.fields(cls)]
+    for k in raw:
+        if k not in ("model", *keys):
+            raise InputError(f"material.{k}", f"is not a key of model = {v['model']!r}, whose keys are "
+                             f"{', '.join(keys)}")
+    for k in keys:
+        if v[k] is None:
+            raise InputError(f"material.{k}", f"is required for model = {v['model']!r}")
+    return cls(*(v[k] for k in keys))
+
+
+def parse_shell(d: Any, material: Any = None) -> Shell:
     v = SHELL.parse(d)
     full = v["full"]
     if full and v["angle"] is not None:
@@ -178,8 +228,8 @@ def parse_shell(d: Any) -> Shell:
     alpha, beta = (0.0, 2.0 * math.pi) if full else v["angle"]
     if not full and not alpha < beta:
         raise InputError("shell.angle", f"needs alpha < beta, got [{math.degrees(alpha):g}, {math.degrees(beta):g}]")
-    return Shell(radius=v["radius"], length=v["length"], thickness=v["thickness"], young=v["young"],
-                 poisson=v["poisson"], alpha=alpha, beta=beta, full=full, x_start=v["x_start"])
+    return Shell(radius=v["radius"], length=v["length"], thickness=v["thickness"],
+                 material=parse_material(v, material), alpha=alpha, beta=beta, full=full, x_start=v["x_start"])
 
 
 def parse_mesh(d: Any) -> MeshSpec:
@@ -239,7 +289,7 @@ def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
     check_unknown("", data, CASE.names())
     if "shell" not in data:
         raise InputError("shell", "section [shell] is required")
-    shell = parse_shell(data["shell"])
+    shell = parse_shell(data["shell"], data.get("material"))
     sup = SUPPORTS_TABLE.parse(data.get("supports", {}))
     default = "periodic" if shell.full else "clamped"
     given = data.get("supports", {})

@@ -1,4 +1,4 @@
-"""Cylindrical shell geometry and material (MODEL.md §1, §3).
+"""Cylindrical shell geometry (MODEL.md §1) and the shell's material (material.py, MODEL.md §3).
 
 The parameter domain is Ω = [x_start, x_start + length] × [α, β]; the finite elements
 live on the arc-length chart (x, s), s = a φ, where the strain operators have constant
@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import InputError
+from .material import Material
 
 ThicknessFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -28,17 +29,17 @@ def _positive(name: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class Shell:
-    """A circular cylindrical shell of radius ``radius`` (a) and Young's modulus E, Poisson μ.
+    """A circular cylindrical shell of radius ``radius`` (a) made of ``material`` (material.py).
 
     ``alpha``/``beta`` are in radians; ``full=True`` means β − α = 2π with the φ-edges
-    identified. ``thickness`` is t = 2e, a number or a callable t(x, φ) (vectorised).
+    identified. ``thickness`` is t = 2e, a number or a callable t(x, φ) (vectorised). The
+    stiffness comes from ``material`` alone (membrane and bending, MODEL.md §3).
     """
 
     radius: float
     length: float
     thickness: float | ThicknessFunction
-    young: float
-    poisson: float
+    material: Material
     alpha: float = 0.0
     beta: float = 2.0 * math.pi
     full: bool = False
@@ -48,10 +49,8 @@ class Shell:
     def __post_init__(self) -> None:
         a = _positive("shell.radius", self.radius)
         _positive("shell.length", self.length)
-        _positive("shell.young", self.young)
-        mu = self.poisson
-        if not isinstance(mu, (int, float)) or not (-1.0 < mu < 0.5):
-            raise InputError("shell.poisson", f"must lie in (-1, 0.5), got {mu!r}")
+        if not isinstance(self.material, Material):
+            raise InputError("shell.material", f"must be a material.Isotropic or Orthotropic, got {self.material!r}")
         if self.full:
             object.__setattr__(self, "beta", self.alpha + 2.0 * math.pi)
         if not (math.isfinite(self.alpha) and math.isfinite(self.beta)):
@@ -98,21 +97,13 @@ class Shell:
     def phi(self, s: np.ndarray) -> np.ndarray:
         return np.asarray(s) / self.radius
 
-    # -- material (MODEL.md §3) ------------------------------------------------------------
+    # -- thickness -----------------------------------------------------------------------------
     def t(self, x: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """Thickness t = 2e at (x, φ), broadcast to the shape of x."""
         x = np.asarray(x, dtype=float)
         if callable(self.thickness):
             return np.broadcast_to(np.asarray(self.thickness(x, np.asarray(phi)), dtype=float), x.shape)
         return np.full(x.shape, float(self.thickness))
-
-    def membrane_stiffness(self, t: np.ndarray) -> np.ndarray:
-        """B = E t / (1 − μ²)."""
-        return self.young * t / (1.0 - self.poisson**2)
-
-    def bending_stiffness(self, t: np.ndarray) -> np.ndarray:
-        """D = E t³ / (12 (1 − μ²))."""
-        return self.young * t**3 / (12.0 * (1.0 - self.poisson**2))
 
     # -- embedding (MODEL.md §1) -----------------------------------------------------------
     def point(self, x: np.ndarray, phi: np.ndarray, zeta: float | np.ndarray = 0.0) -> np.ndarray:

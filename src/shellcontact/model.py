@@ -7,7 +7,8 @@ measures of MODEL.md §2 (w positive outward) read
     ε22 = v_s + w/a      κ22 = −(w_ss + w/a²)
     γ12 = u_s + v_x      κ12 = −w_xs + (v_x − u_s)/(2a)
 
-and the strain energy density is N·ε + M·κ with N = C_m ε, M = C_b κ (MODEL.md (5.5)).
+and the strain energy density is ½ eᵀ C e with the material's energy matrices (material.py,
+MODEL.md §3): the shell's ``material`` is the only source of stiffness.
 """
 
 from __future__ import annotations
@@ -38,23 +39,23 @@ def strains(d: dict[str, np.ndarray], a: float) -> np.ndarray:
 
 
 def constitutive(shell: Shell, t: np.ndarray) -> np.ndarray:
-    """Energy matrix C (6, 6, ...) with energy density ½ eᵀ C e (MODEL.md §3).
+    """Energy matrix C (6, 6, ...) with energy density ½ eᵀ C e (MODEL.md §3), from the shell's material.
 
-    Membrane: N = B [[1, μ, 0], [μ, 1, 0], [0, 0, (1−μ)/2]] (ε11, ε22, γ12);
-    bending: D [[1, μ, 0], [μ, 1, 0], [0, 0, 2(1−μ)]] (κ11, κ22, κ12), since 2 M12 κ12 = 2 D (1−μ) κ12².
+    Membrane block: membrane_scale(t) · membrane_pattern on (ε11, ε22, γ12) = t Q;
+    bending block: bending_scale(t) · bending_pattern on (κ11, κ22, κ12) = (t³/12) T Q T, T = diag(1, 1, 2)
+    (isotropic: B [[1, μ, 0], [μ, 1, 0], [0, 0, (1−μ)/2]] and D [[1, μ, 0], [μ, 1, 0], [0, 0, 2(1−μ)]]).
     """
-    mu = shell.poisson
-    B, D = shell.membrane_stiffness(t), shell.bending_stiffness(t)
+    mat = shell.material
     C = np.zeros((6, 6) + np.shape(t))
-    for off, S, shear in ((0, B, 0.5 * (1 - mu)), (3, D, 2.0 * (1 - mu))):
-        C[off, off] = C[off + 1, off + 1] = S
-        C[off, off + 1] = C[off + 1, off] = mu * S
-        C[off + 2, off + 2] = shear * S
+    for off, S, pattern in ((0, mat.membrane_scale(t), mat.membrane_pattern),
+                            (3, mat.bending_scale(t), mat.bending_pattern)):
+        C[off : off + 3, off : off + 3] = pattern.reshape((3, 3) + (1,) * np.ndim(S)) * S
     return C
 
 
 def resultants(shell: Shell, e: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """(N11, N22, N12, M11, M22, M12) from strains e (6, ...): N12 = B(1−μ)/2 γ12, M12 = D(1−μ) κ12."""
+    """(N11, N22, N12, M11, M22, M12) from strains e (6, ...): N = t Q (ε11, ε22, γ12),
+    M = (t³/12) Q (κ11, κ22, 2κ12) (MODEL.md §3)."""
     C = constitutive(shell, t)
     r = np.einsum("ij...,j...->i...", C, e)
     r[5] *= 0.5  # the energy matrix carries 2 M12 κ12
@@ -128,7 +129,7 @@ def element_matrices(
 ) -> np.ndarray:
     """Element stiffness matrices (n, 33, 33) of a(U, V) (MODEL.md §3) in the local dof order of element_dofs."""
     shell = space.mesh.shell
-    mu = shell.poisson
+    mat = shell.material
     X, W = space.quadrature(order)
     (Hpp_q, Hpp), (Hpw_q, Hpw), (Hww_q, Hww) = _reference_tables(order, X, W)
     m = space.mesh.mesh
@@ -138,8 +139,8 @@ def element_matrices(
     _, K, det = affine_maps(verts)
     n = e.size
     c = _strain_coefficients(K, shell.radius)
-    cm = np.array([[1.0, mu, 0.0], [mu, 1.0, 0.0], [0.0, 0.0, 0.5 * (1.0 - mu)]]) * ("membrane" in parts)
-    cb = np.array([[1.0, mu, 0.0], [mu, 1.0, 0.0], [0.0, 0.0, 2.0 * (1.0 - mu)]]) * ("bending" in parts)
+    cm = mat.membrane_pattern * ("membrane" in parts)
+    cb = mat.bending_pattern * ("bending" in parts)
     adet = np.abs(det)[:, None, None]
     cmem, cben = c[:, :3], c[:, 3:]
     Wm = (cmem.transpose(0, 2, 1) @ (cm @ cmem)) * adet  # (n, 8, 8)
@@ -147,14 +148,14 @@ def element_matrices(
     if callable(shell.thickness):
         x, s, _ = space.reference_to_physical(e, X)
         t = shell.t(x, s / shell.radius)
-        Wq = (shell.membrane_stiffness(t)[:, :, None, None] * Wm[:, None] + shell.bending_stiffness(t)[:, :, None, None]
+        Wq = (mat.membrane_scale(t)[:, :, None, None] * Wm[:, None] + mat.bending_scale(t)[:, :, None, None]
               * Wb[:, None])  # (n, nq, 8, 8)
         Mpp = Wq[:, :, :4, :4].reshape(n, -1) @ Hpp_q
         Mpw = Wq[:, :, :4, 4:].reshape(n, -1) @ Hpw_q
         Mww = Wq[:, :, 4:, 4:].reshape(n, -1) @ Hww_q
     else:
         thick = float(shell.thickness)
-        Wc = shell.membrane_stiffness(thick) * Wm + shell.bending_stiffness(thick) * Wb
+        Wc = mat.membrane_scale(thick) * Wm + mat.bending_scale(thick) * Wb
         Mpp = Wc[:, :4, :4].reshape(n, 16) @ Hpp
         Mpw = Wc[:, :4, 4:].reshape(n, 16) @ Hpw
         Mww = Wc[:, 4:, 4:].reshape(n, 16) @ Hww

@@ -14,7 +14,7 @@ class SolverOptions:
 
     method: str = DEFAULT_METHOD
     tolerance: float = 1e-10
-    penalty: float | None = None  # ε; default: 1e-6 · a²/(E t), see ``analysis.default_penalty``
+    penalty: float | None = None  # ε; default: 1e-6 · a²/(E₂ t), see ``analysis.default_penalty``
     continuation: tuple[float, ...] = ()
     max_iterations: int | None = None
     backend: str = "auto"

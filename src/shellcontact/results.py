@@ -57,7 +57,8 @@ class ShellSolution:
         return dict(zip(RESULTANTS, r))
 
     def stresses(self, x, phi, zeta) -> dict[str, np.ndarray]:
-        """Stresses σ11, σ22, σ12 at distance ζ from the middle surface (plane stress, linear in ζ)."""
+        """Stresses σ11, σ22, σ12 at distance ζ from the middle surface: σ = Q (ε + ζ κ), κ = (κ11, κ22, 2κ12)
+        (MODEL.md §3), written N/t + 12 ζ M/t³ with the material's resultants (Q constant through the thickness)."""
         x, phi = np.atleast_1d(np.asarray(x, float)), np.atleast_1d(np.asarray(phi, float))
         r = self.resultants(x, phi)
         t = self.shell.t(x, phi)

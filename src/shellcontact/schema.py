@@ -155,7 +155,7 @@ class Key:
             return v
         if k == "choice":
             if v not in self.choices or isinstance(v, bool):
-                raise InputError(where, f"must be one of {', '.join(map(str, self.choices))}, got {v!r}")
+                raise InputError(where, f"must be one of {', '.join(map(repr, self.choices))}, got {v!r}")
             return v
         if k == "string":
             if not isinstance(v, str):
