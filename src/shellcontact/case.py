@@ -32,7 +32,7 @@ SCHEMA: dict[str, set[str]] = {
     "loads": {"normal", "surface", "point", "line"},
     "probes": {"x", "phi"},
     "solver": {"method", "tolerance", "penalty", "max_iterations", "backend", "continuation", "nested",
-               "contact_points", "extended_precision"},
+               "contact_points", "extended_precision", "substructure"},
     "punch": set(),  # validated by the contact layer
 }
 REQUIRED = ("shell",)
