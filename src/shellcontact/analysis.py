@@ -34,7 +34,7 @@ from .punch import Punch, fitted_mesh, punches_from_case
 from .results import ShellSolution
 from .solvers import ContactQP, ContactSolution, solve_active_set, solve_dual, solve_penalty
 from .solvers.screening import factorize_screened, solve_screened
-from .solvers.substructure import substructure_enabled
+from .solvers.substructure import MIN_UNKNOWNS
 from .spaces import ShellSpace
 from .supports import Reduction
 
@@ -79,6 +79,7 @@ class SolverOptions:
     nested: bool = False
     contact_points: str = "vertices"
     extended_precision: bool = False
+    substructure: str | bool = "auto"  # "auto": from substructure.MIN_UNKNOWNS unknowns on
 
     @classmethod
     def from_case(cls, case: Case, method: str | None = None) -> SolverOptions:
@@ -115,8 +116,11 @@ class SolverOptions:
         extended = d.get("extended_precision", False)
         if not isinstance(extended, bool):
             raise InputError("solver.extended_precision", f"must be true or false, got {extended!r}")
+        substructure = d.get("substructure", "auto")
+        if not (isinstance(substructure, bool) or substructure == "auto"):
+            raise InputError("solver.substructure", f'must be "auto", true or false, got {substructure!r}')
         return cls(m, float(tol), None if eps is None else float(eps), tuple(float(c) for c in cont), it,
-                   backend, nested, points, extended)
+                   backend, nested, points, extended, substructure)
 
 
 def default_penalty(case: Case) -> float:
@@ -355,8 +359,9 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     # exact methods: the dense Schur complement of the rows predicted to touch (solvers.screening)
     screen = None
     with timer.stage("factorization"):
-        if opts.method != "penalty" and substructure_enabled():
-            fac, screen = factorize_screened(qp, op.punch, initial_active, opts.backend)
+        if opts.method != "penalty" and opts.substructure is not False:
+            fac, screen = factorize_screened(qp, op.punch, initial_active, opts.backend,
+                                             0 if opts.substructure is True else MIN_UNKNOWNS)
         else:
             fac = factorize(d.Ar, opts.backend)
     info["backend"] = fac.backend
