@@ -208,8 +208,9 @@ PANEL = str(Path(__file__).resolve().parents[1] / "examples" / "paper_panel.toml
         ("punch.0.indentaton=1e-3", ["punch.0.indentaton", "did you mean 'indentation'"]),
         ("solver.penalty=0", ["solver.penalty", "> 0"]),
         ("punch.0.zone={x=[5.0, 6.0], phi=[70.0, 110.0]}", ["punch.0.zone.x", "outside the shell"]),
+        ('solver.substructure="yes"', ["solver.substructure", '"auto", true or false', "yes"]),
     ],
-    ids=["punch-radius", "punch-shape", "punch-key", "penalty-epsilon", "zone-outside"],
+    ids=["punch-radius", "punch-shape", "punch-key", "penalty-epsilon", "zone-outside", "substructure"],
 )
 def test_bad_contact_input(tmp_path: Path, setting: str, fragments: list[str]) -> None:
     r = cli("run", PANEL, "-o", "out", "--set", "mesh.nx=4", "--set", "mesh.nphi=4", "--set", setting, cwd=tmp_path)

@@ -397,7 +397,7 @@ ORTHO = {"model": "orthotropic", "e1": 3.0, "e2": 1.0, "g12": 0.5, "nu12": 0.4}
         (with_material({"young": 1.0, "poisson": 0.3}, young=1.0), "material", ["given twice", "shell.young"]),
         (with_material(ORTHO, poisson=0.3), "material", ["given twice", "shell.poisson", "[material]"]),
         (with_material(3.0), "material", ["must be a table"]),
-        (with_material({**ORTHO, "model": "anisotropic"}), "material.model", ["'isotropic'", "'orthotropic'"]),
+        (with_material({**ORTHO, "model": "anisotropic"}), "material.model", ['"isotropic"', '"orthotropic"']),
         (with_material({**ORTHO, "model": 1}), "material.model", ["must be one of"]),
         (with_material({**ORTHO, "young": 1.0}), "material.young", ["not a key of model = 'orthotropic'", "e1"]),
         (with_material({"young": 1.0, "poisson": 0.3, "g12": 1.0}), "material.g12", ["model = 'isotropic'"]),

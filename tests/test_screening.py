@@ -93,19 +93,17 @@ def test_workspace_prefix_schur_and_reuse() -> None:
 
 
 @pytest.mark.skipif(not HAS_PARDISO, reason="the substructured path needs PARDISO")
-def test_solve_takes_the_screened_path_and_agrees(monkeypatch) -> None:
+def test_solve_takes_the_screened_path_and_agrees() -> None:
     """analysis.solve on the paper panel at 52k unknowns (above substructure.MIN_UNKNOWNS): the
     screened, substructured path gives the active set, forces and KKT level of the plain path
-    (SHELLCONTACT_SUBSTRUCTURE=0: one sparse solve per Schur column)."""
+    ([solver] substructure = false: one sparse solve per Schur column)."""
     from pathlib import Path
 
     from shellcontact import load_case, solve
 
     path = Path(__file__).resolve().parent.parent / "src" / "shellcontact" / "cases" / "paper_panel.toml"
-    case = load_case(path, ["mesh.nx=56", "mesh.nphi=56"])
-    screened = solve(case)
-    monkeypatch.setenv("SHELLCONTACT_SUBSTRUCTURE", "0")
-    plain = solve(case)
+    screened = solve(load_case(path, ["mesh.nx=56", "mesh.nphi=56"]))
+    plain = solve(load_case(path, ["mesh.nx=56", "mesh.nphi=56", "solver.substructure=false"]))
     scr = screened.contact.solution.info["screening"]
     assert screened.info["unknowns"] >= 40_000 and scr["rows"][0] < scr["candidates"]
     assert "screening" not in plain.contact.solution.info
@@ -113,3 +111,22 @@ def test_solve_takes_the_screened_path_and_agrees(monkeypatch) -> None:
     f_s, f_p = (r.contact.summary()[0]["force_magnitude"] for r in (screened, plain))
     assert f_s == pytest.approx(f_p, rel=1e-8)
     assert max(screened.summary()["kkt_scaled"].values()) <= 1e-10
+
+
+@pytest.mark.skipif(not HAS_PARDISO, reason="the substructured path needs PARDISO")
+def test_substructure_option_forces_the_path_below_the_threshold() -> None:
+    """[solver] substructure = true takes the screened, substructured path below
+    substructure.MIN_UNKNOWNS too ("auto" does not there), with the same answer."""
+    from pathlib import Path
+
+    from shellcontact import load_case, solve
+
+    path = Path(__file__).resolve().parent.parent / "src" / "shellcontact" / "cases" / "paper_panel.toml"
+    small = ["mesh.nx=20", "mesh.nphi=20"]
+    auto = solve(load_case(path, small))
+    forced = solve(load_case(path, [*small, "solver.substructure=true"]))
+    assert auto.info["unknowns"] < 40_000
+    assert "screening" not in auto.contact.solution.info and "screening" in forced.contact.solution.info
+    assert np.array_equal(forced.contact.active, auto.contact.active)
+    f_f, f_a = (r.contact.summary()[0]["force_magnitude"] for r in (forced, auto))
+    assert f_f == pytest.approx(f_a, rel=1e-8)

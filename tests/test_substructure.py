@@ -1,4 +1,5 @@
-"""solvers.substructure: S = B A⁻¹ Bᵀ from the PARDISO Schur complement of the bordered matrix M.
+"""solvers.substructure and linalg.bordered: S = B A⁻¹ Bᵀ from the PARDISO Schur complement of the
+bordered matrix M.
 
 Checked against dense linear algebra on the synthetic QPs (S = B A⁻¹ Bᵀ by numpy), the solves
 against A, the contact solvers against the same solvers with one sparse solve per Schur column
@@ -38,7 +39,7 @@ def test_schur_columns_equal_dense(name: str) -> None:
     if not HAS_PARDISO:  # other backends: a plain factorisation, no Schur complement
         assert fac.schur is None
         return
-    assert fac.schur is not None and fac.schur.matches(qp.B) and fac.schur.valid
+    assert fac.schur is not None and fac.schur.matches(qp.B)
     S = _dense_S(qp)
     cols = np.arange(qp.m)
     got = fac.schur.columns(cols)
@@ -48,7 +49,7 @@ def test_schur_columns_equal_dense(name: str) -> None:
     x = fac.solve(b)
     x_ref = np.linalg.solve(qp.A.toarray(), b)
     assert np.linalg.norm(x - x_ref) <= 1e-10 * np.linalg.norm(x_ref)
-    X = fac.solve(np.column_stack([b, 2 * b]))
+    X = fac.solve_many(np.column_stack([b, 2 * b]))
     assert np.linalg.norm(X[:, 1] - 2 * x_ref) <= 1e-10 * np.linalg.norm(2 * x_ref)
 
 
@@ -90,9 +91,8 @@ def test_refactor_drops_schur_and_solves_new_matrix() -> None:
     fac = factorize_contact(qp.A, qp.B, min_unknowns=0)
     A2 = (qp.A + sp.diags(np.full(qp.n, 1e-3 * qp.A.diagonal().max()))).tocsr()
     fac.refactor(A2)
-    if fac.schur is not None:
-        assert not fac.schur.valid
-        assert Workspace(qp, fac).dense_schur is None
+    assert fac.schur is None
+    assert Workspace(qp, fac).dense_schur is None
     b = np.ones(qp.n)
     x_ref = np.linalg.solve(A2.toarray(), b)
     assert np.linalg.norm(fac.solve(b) - x_ref) <= 1e-10 * np.linalg.norm(x_ref)
@@ -109,13 +109,14 @@ def test_other_backend_or_small_is_plain_factorization() -> None:
 
 @pytest.mark.parametrize("name", ["beam-zone", "plate-zone"])
 def test_bordered_matrix_equals_its_definition(name: str) -> None:
-    """substructure._bordered_upper = triu([[A + ρBᵀB, −ρBᵀ], [−ρB, ρI]]) built by sparse blocks, both
-    when ρBᵀB lies inside A's pattern (added in place) and when it does not (the sparse-sum fallback)."""
-    from shellcontact.linalg import _equilibrate
-    from shellcontact.solvers.substructure import _bordered_upper
+    """linalg.bordered.bordered_upper = triu([[A + ρBᵀB, −ρBᵀ], [−ρB, ρI]]) built by sparse blocks,
+    both when ρBᵀB lies inside A's pattern (added in place) and when it does not (the sparse-sum
+    fallback)."""
+    from shellcontact.linalg.bordered import bordered_upper
+    from shellcontact.linalg.sparse import equilibrate
 
     qp = CASES[name]()
-    scale, As = _equilibrate(qp.A, upper=True)
+    scale, As = equilibrate(qp.A, upper=True)
     Bs = (qp.B @ sp.diags(scale)).tocsr()
     rho = 0.7
 
@@ -123,7 +124,7 @@ def test_bordered_matrix_equals_its_definition(name: str) -> None:
         K = U + sp.triu(rho * (Bs.T @ Bs))
         return sp.bmat([[K, -rho * Bs.T], [None, rho * sp.identity(qp.m)]]).toarray()
 
-    got = _bordered_upper(As.copy(), Bs, rho)
+    got = bordered_upper(As.copy(), Bs, rho)
     assert got.has_sorted_indices
     assert np.array_equal(got.toarray(), reference(As))
     # drop an off-diagonal entry that ρBᵀB needs from the pattern: the fallback path
@@ -133,6 +134,6 @@ def test_bordered_matrix_equals_its_definition(name: str) -> None:
     holed[i, j] = 0.0
     holed = holed.tocsr()
     holed.eliminate_zeros()
-    got = _bordered_upper(holed.copy(), Bs, rho)
+    got = bordered_upper(holed.copy(), Bs, rho)
     assert got.has_sorted_indices
     assert np.allclose(got.toarray(), reference(holed), rtol=0.0, atol=1e-15)

@@ -36,7 +36,7 @@ from .results import ShellSolution
 from .solvers import ContactQP, ContactSolution
 from .solvers.methods import METHODS
 from .solvers.screening import factorize_screened, solve_screened
-from .solvers.substructure import substructure_enabled
+from .solvers.substructure import MIN_UNKNOWNS
 from .spaces import ShellSpace
 from .supports import Reduction
 
@@ -320,8 +320,9 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     # exact methods: the dense Schur complement of the rows predicted to touch (solvers.screening)
     screen = None
     with timer.stage("factorization"):
-        if exact and substructure_enabled():
-            fac, screen = factorize_screened(qp, op.punch, initial_active, opts.backend)
+        if exact and opts.substructure is not False:
+            fac, screen = factorize_screened(qp, op.punch, initial_active, opts.backend,
+                                             0 if opts.substructure is True else MIN_UNKNOWNS)
         else:
             fac = factorize(d.Ar, opts.backend)
     info["backend"] = fac.backend

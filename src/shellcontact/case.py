@@ -20,6 +20,7 @@ from typing import Any
 
 from .errors import InputError
 from .geometry import Shell
+from .linalg import BACKENDS
 from .loads import LineLoad, Loads, PointLoad
 from .material import MATERIALS, Material
 from .mesh import PATTERNS, MeshSpec
@@ -141,7 +142,7 @@ SOLVER = Table("solver", (
     Key("nested", "bool", "solve on `mesh.refine − 1` first (recursively) and start from that solution",
         default=False),
     Key("backend", "choice", "sparse factorisation, shared by all solves (`shellcontact info` lists those "
-        "installed)", choices=("auto", "pardiso", "cholmod", "superlu"), default=SolverOptions.backend),
+        "installed)", choices=("auto", *BACKENDS), default=SolverOptions.backend),
     Key("extended_precision", "bool", "refine the final solves U = A⁻¹(F + BᵀΛ) with residuals in extended "
         "precision (`numpy.longdouble`), then refine Λ on those gaps: the force is then not limited by cond(A)·ε "
         "(exact methods; costs a few solves; [solvers.md](solvers.md#accuracy-extended-precision-refinement))",
@@ -150,6 +151,10 @@ SOLVER = Table("solver", (
         "also at the edge midpoints of the zone's triangles (weights from P1 on the red-refined triangles: \\|T\\|/12 "
         "per vertex, \\|T\\|/4 per midpoint)", choices=("vertices", "vertices+midpoints"),
         default=SolverOptions.contact_points),
+    Key("substructure", "choice", "factorise A bordered by the contact rows predicted to touch, for the dense Schur "
+        "complement (exact methods, PARDISO): `\"auto\"` from 40 000 unknowns on, `true` always, `false` never "
+        "([solvers.md](solvers.md#large-problems-substructured-factorisation-and-screening))",
+        choices=("auto", True, False), default=SolverOptions.substructure),
 ))
 
 #: the case file's top-level tables; ``[shell]`` is required

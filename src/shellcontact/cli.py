@@ -235,14 +235,17 @@ def cmd_convergence(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_info(args: argparse.Namespace, con: Console) -> int:
-    from .linalg import available_backends, default_backend
+    from .linalg import BACKENDS, available_backends, default_backend
     from .report import versions
 
     v = versions()
     con.print(f"shellcontact {__version__}")
     con.print("  ".join(f"{k} {val}" for k, val in v.items() if k not in ("shellcontact", "platform")))
     con.print(f"platform: {v['platform']}")
-    con.print(f"linear-algebra backends: {', '.join(available_backends())} (using {default_backend()})")
+    available = available_backends()
+    con.print(f"linear-algebra backends: {', '.join(available)} (using {default_backend()}; \"auto\" takes the first)")
+    for b in BACKENDS.values():
+        con.print(f"  {b.name:<8} {'available' if b.name in available else 'not installed':<13}  {b.doc}")
     env = ", ".join(
         f"{k}={os.environ.get(k, 'unset')}" for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
     )

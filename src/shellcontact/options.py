@@ -21,6 +21,7 @@ class SolverOptions:
     nested: bool = False
     contact_points: str = "vertices"
     extended_precision: bool = False
+    substructure: str | bool = "auto"  # "auto": from solvers.substructure.MIN_UNKNOWNS unknowns on
 
     def with_method(self, method: str | None) -> SolverOptions:
         """These options with another contact method (the ``method=`` argument of ``solve``)."""

@@ -48,6 +48,13 @@ KINDS = {
 }
 
 
+def toml(v: Any) -> str:
+    """A value as it is written in a case file."""
+    if isinstance(v, bool):
+        return str(v).lower()
+    return f'"{v}"' if isinstance(v, str) else repr(v)
+
+
 def _is_number(v: Any) -> bool:
     return isinstance(v, numbers.Real) and not isinstance(v, bool)
 
@@ -154,8 +161,9 @@ class Key:
                 raise InputError(where, f"must be true or false, got {v!r}")
             return v
         if k == "choice":
-            if v not in self.choices or isinstance(v, bool):
-                raise InputError(where, f"must be one of {', '.join(map(repr, self.choices))}, got {v!r}")
+            if not any(type(v) is type(c) and v == c for c in self.choices):
+                *first, last = map(toml, self.choices)
+                raise InputError(where, f"must be one of {', '.join(first)} or {last}, got {v!r}")
             return v
         if k == "string":
             if not isinstance(v, str):
@@ -192,7 +200,7 @@ class Key:
         if self.allowed is not None:
             return self.allowed
         if self.kind == "choice":
-            return ", ".join(f'`"{c}"`' if isinstance(c, str) else f"`{c}`" for c in self.choices)
+            return ", ".join(f"`{toml(c)}`" for c in self.choices)
         if self.kind == "bool":
             return "`true`/`false`"
         if self.kind in ("number", "integer", "vector", "pair", "numbers", "number_or_function",
@@ -208,10 +216,8 @@ class Key:
             return "required"
         if d is None:
             return "none"
-        if isinstance(d, bool):
-            return f"`{str(d).lower()}`"
-        if isinstance(d, str):
-            return f'`"{d}"`'
+        if isinstance(d, (bool, str)):
+            return f"`{toml(d)}`"
         if self.angle and _is_number(d):
             return f"{math.degrees(d):g}"
         if isinstance(d, tuple):

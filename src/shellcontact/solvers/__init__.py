@@ -13,10 +13,6 @@ Public API::
     solve_dual(qp, tol=1e-10, max_iterations=500, factorization=None)
     kkt_residuals(qp, U, Lambda, delta=None, factorization=None) -> dict
 
-    # a predicted active set I0 known BEFORE factorising (same rows: a re-solve, a sweep step):
-    K, r = augmentation(qp, I0)                                  # K = A + B_I0ᵀ diag(r) B_I0
-    solve_augmented(qp, I0, r, factorization=factorize(K), tol=1e-10)   # factorise K instead of A
-
 All three return a ``ContactSolution`` (U, Lambda = nodal forces, pressure = Λ/ω, active,
 delta, iterations, residuals, method, history, timings, energy, dual_value, info). Pass
 ``factorization=shellcontact.linalg.factorize(A)`` to share one factorisation between solves.
@@ -37,10 +33,6 @@ Options beyond the common API: ``initial_U`` (active set, penalty), ``initial_la
 ``initial_active`` (dual), ``growth`` (active set, dual: restricted growth of the working set),
 ``fallback`` (active set), ``hessian="schur"|"refactorize"`` (penalty).
 
-``solve_augmented`` (module ``augmented``) needs no column of S: conjugate gradients on the
-augmented-Lagrangian dual, a few solves with K; a wrong prediction falls back to the exact active
-set with A⁻¹ = Woodbury(K⁻¹) on the same factors (|I0| extra columns), never a second factorisation.
-
 Large problems (what ``analysis.solve`` does for the exact methods from 40k unknowns)::
 
     from shellcontact.solvers.screening import factorize_screened, solve_screened
@@ -50,23 +42,20 @@ Large problems (what ``analysis.solve`` does for the exact methods from 40k unkn
 ``extended=True`` (active set, dual) refines the final solves in extended precision.
 
 Modules: qp (data, feasibility check), kkt (residuals, duality gap), schur (factorisation and
-S columns), substructure (a factorisation that also yields the dense S: ``factorize_contact``),
-screening (the Schur complement of the rows predicted to touch, the others verified), augmented (exact solve with
-one factorisation of A + B_I0ᵀRB_I0 when the active set is known beforehand), penalty,
+S columns), substructure (when the factorisation also yields the dense S: ``factorize_contact``),
+screening (the Schur complement of the rows predicted to touch, the others verified), penalty,
 active_set (PDAS + fallback), dual (MPRGP with exact face solves, SMALBE for force control),
 synthetic (test problems; ``python -m shellcontact.solvers.synthetic`` prints iteration counts
 and timings).
 """
 
 from .active_set import solve_active_set
-from .augmented import AugmentedInverse, augmentation, solve_augmented
 from .dual import solve_dual
 from .kkt import dual_value, kkt_residuals, lagrangian
 from .penalty import solve_penalty
 from .qp import ContactQP, ContactSolution, InfeasibleProblemError, check_feasibility
 
 __all__ = [
-    "AugmentedInverse",
     "ContactQP",
     "ContactSolution",
     "InfeasibleProblemError",
@@ -74,8 +63,6 @@ __all__ = [
     "dual_value",
     "kkt_residuals",
     "lagrangian",
-    "augmentation",
-    "solve_augmented",
     "solve_active_set",
     "solve_dual",
     "solve_penalty",

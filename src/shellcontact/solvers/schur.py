@@ -10,9 +10,10 @@ the check fails, a few refinement steps with the true gaps as right-hand side fo
 (iterative refinement of the face system).
 
 When the factorisation carries the dense Schur complement of the QP's rows
-(``substructure.factorize_contact``: one PARDISO factorisation of A bordered by B), a column of S
-costs two dense triangular solves of order m instead of a sparse solve, and ``finish_exact``
-always does one face refinement on the true gaps (kept only if the point stays converged).
+(``Factorization.schur``, from ``substructure.factorize_contact``: one factorisation of A bordered
+by B), a column of S costs two dense triangular solves of order m instead of a sparse solve, and
+``finish_exact`` always does one face refinement on the true gaps (kept only if the point stays
+converged).
 """
 
 from __future__ import annotations
@@ -23,10 +24,11 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..errors import SolverError
-from ..linalg import Factorization, factorize
+from ..linalg import Factorization, SchurComplement, factorize
+from ..linalg.sparse import same_entries
 from .kkt import TINY, KKTReport, evaluate
 from .qp import ContactQP, ContactSolution, check_feasibility
-from .substructure import ContactSchur, factorize_contact, same_rows
+from .substructure import factorize_contact
 
 
 def default_growth(ws: Workspace) -> float:
@@ -65,9 +67,9 @@ class Workspace:
             factorization = factorize_contact(qp.A, qp.B, min_unknowns=0) if substructure else factorize(qp.A)
         self.fact = factorization
         self.timings["factorization"] = time.perf_counter() - t
-        sch = getattr(self.fact, "schur", None) if substructure is not False else None
-        prefix = sch is not None and sch.valid and sch.m <= qp.m and sch.matches(qp.B[: sch.m])
-        self.dense_schur: ContactSchur | None = sch if prefix else None
+        sch = self.fact.schur if substructure is not False else None
+        prefix = sch is not None and sch.m <= qp.m and sch.matches(qp.B[: sch.m])
+        self.dense_schur: SchurComplement | None = sch if prefix else None
         #: S[:, m0:] for the rows after the dense Schur complement's m0 rows (None: there are none)
         self.extra: np.ndarray | None = None
         #: one face refinement on the true gaps after convergence (finish_exact); on with the dense S
@@ -87,32 +89,20 @@ class Workspace:
         self._pos = np.full(m, -1, dtype=np.int64)
         gmax = float(np.abs(qp.G).max()) if m else 0.0
         self.lscale = max(gmax, float(np.abs(self.BU0).max()) if m else 0.0, TINY)
-        seed = getattr(self.fact, "schur_columns", None)  # augmented.AugmentedInverse: S[:, I0] without solves
-        if seed is not None:
-            t = time.perf_counter()
-            rows, cols = seed(qp.B)
-            if rows.size:
-                self._store = np.empty((m, max(rows.size, 16)))
-                self._store[:, : rows.size] = cols
-                self._pos[rows] = np.arange(rows.size)
-                self._ncol = rows.size
-                M = cols[rows]
-                self._store[np.ix_(rows, np.arange(rows.size))] = 0.5 * (M + M.T)
-            self.timings["schur"] += time.perf_counter() - t
 
     # -- linear algebra -------------------------------------------------------------------
     def solve(self, b: np.ndarray) -> np.ndarray:
         t = time.perf_counter()
         x = self.fact.solve(b)
         self.timings["solve"] += time.perf_counter() - t
-        self.n_solves += 1 if b.ndim == 1 else b.shape[1]
+        self.n_solves += 1
         return x
 
     def solve_equilibrium(self, lam: np.ndarray) -> np.ndarray:
         """U = A⁻¹(F + BᵀΛ); with ``extended`` the right-hand side and the refinement's residuals in
         extended precision."""
         qp = self.qp
-        if not (self.extended and isinstance(self.fact, Factorization)):
+        if not self.extended:
             return self.solve(qp.F + qp.B.T @ lam)
         t = time.perf_counter()
         ld = np.longdouble
@@ -158,12 +148,14 @@ class Workspace:
         return int(max(1, min(64, 2e8 // self.qp.n)))
 
     def _solved_columns(self, cols: np.ndarray) -> np.ndarray:
-        """S[:, cols] = B (A⁻¹ B_colsᵀ): blocked sparse solves."""
-        Z = self._raw_solve(self.BT[:, cols].toarray())
+        """S[:, cols] = B (A⁻¹ B_colsᵀ): one blocked sparse solve."""
+        # without iterative refinement: it would triple the cost of the columns, and round-off in S
+        # is corrected by the refinement on the true gaps at the end
+        Z = self.fact.solve_many(self.BT[:, cols].toarray(), refine=False)
         self.n_solves += cols.size
         return self.qp.B @ Z
 
-    def _extra_columns(self, sch: ContactSchur) -> np.ndarray:
+    def _extra_columns(self, sch: SchurComplement) -> np.ndarray:
         """S[:, m0:] for the rows after the m0 Schur rows: the block an earlier Workspace solved for
         (``sch.extra``, when this QP's rows extend its rows) is reused, the new columns are solved
         for, and S[new, old] = S[old, new]ᵀ."""
@@ -173,7 +165,7 @@ class Workspace:
         if sch.extra is not None:
             rows, known = sch.extra
             e = rows.shape[0]
-            if m0 + e <= m and same_rows(self.qp.B[m0 : m0 + e], rows):
+            if m0 + e <= m and same_entries(self.qp.B[m0 : m0 + e], rows):
                 out[: m0 + e, :e] = known
             else:
                 e = 0
@@ -198,17 +190,6 @@ class Workspace:
         if (~first).any():
             X[:, ~first] = self.extra[:, cols[~first] - m0]
         return X
-
-    def _raw_solve(self, R: np.ndarray) -> np.ndarray:
-        """Blocked solve without iterative refinement (it would triple the cost of the columns;
-        round-off in S is corrected by the refinement on the true gaps at the end)."""
-        f = self.fact
-        if hasattr(f, "raw_solve"):  # augmented.AugmentedInverse
-            return f.raw_solve(R)
-        if isinstance(f, Factorization):
-            sc = f.scale[:, None]
-            return sc * f.impl.solve(sc * R)
-        return f.solve(R)
 
     def columns(self, idx: np.ndarray) -> np.ndarray:
         """S[:, idx] (m × len(idx))."""

@@ -30,7 +30,7 @@ from ..errors import InputError, SolverError
 from ..linalg import Factorization
 from .kkt import length_scale
 from .qp import ContactQP, ContactSolution
-from .substructure import factorize_contact
+from .substructure import MIN_UNKNOWNS, factorize_contact
 
 #: share of each punch's candidate rows in the first Schur complement. On the demo case every
 #: active row is among the deepest 21-28 % (70k, 211k, 281k dofs: 58 of 625 rows active, the
@@ -62,15 +62,17 @@ def initial_rows(G: np.ndarray, groups: np.ndarray | None = None, fraction: floa
 
 
 def factorize_screened(qp: ContactQP, groups: np.ndarray | None = None, initial_active: np.ndarray | None = None,
-                       backend: str = "auto") -> tuple[Factorization, np.ndarray | None]:
+                       backend: str = "auto",
+                       min_unknowns: int = MIN_UNKNOWNS) -> tuple[Factorization, np.ndarray | None]:
     """The factorisation for the exact methods: A with the dense Schur complement of the rows
     ``initial_rows(qp.G, groups)`` (plus the rows of ``initial_active``, e.g. a warm start) when
-    ``substructure.factorize_contact`` takes that path, else plain. Returns it and the screened rows
-    (None when there is no Schur complement: then solve the whole QP directly)."""
+    ``substructure.factorize_contact`` takes that path (from ``min_unknowns`` on), else plain. Returns
+    it and the screened rows (None when there is no Schur complement: then solve the whole QP
+    directly)."""
     rows = initial_rows(qp.G, groups)
     if initial_active is not None:
         rows = np.union1d(rows, np.flatnonzero(np.asarray(initial_active, dtype=bool)))
-    fac = factorize_contact(qp.A, qp.B[rows], backend)
+    fac = factorize_contact(qp.A, qp.B[rows], backend, min_unknowns=min_unknowns)
     return fac, (rows if fac.schur is not None else None)
 
 

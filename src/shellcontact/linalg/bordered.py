@@ -1,0 +1,141 @@
+"""The whole Schur complement S = B A⁻¹ Bᵀ of given rows B from one factorisation of A bordered by B.
+
+When B's rows touch only a few dofs each (contact rows), S needs A⁻¹ only there. Rather than m
+solves with the full factors (one per column of S), the rows' space is glued to A as m extra
+unknowns y = B U with a stiffness ρ (in the equilibrated variables):
+
+    M = [[A + ρ BᵀB, −ρ Bᵀ],          Schur complement of M on y:
+         [−ρ B,        ρ I ]]           T = ρI − ρ²B(A + ρBᵀB)⁻¹Bᵀ = (ρ⁻¹I + S)⁻¹   (Woodbury)
+
+M is symmetric positive definite. A backend that computes the dense Schur complement T of M's last
+m rows during its numeric factorisation (``Factorization.supports_schur``: PARDISO) factorises M
+once for ``factorize(A, border=B)``. Then
+
+* S[:, J] = T⁻¹[:, J] − ρ⁻¹ I[:, J]: one dense Cholesky of T (m³/3 flops) and 2m² flops per column
+  instead of one sparse solve per column (``SchurComplement.columns``);
+* A⁻¹b = the first n entries of M⁻¹[b; 0] (eliminating y gives A U = b), so the same factors serve
+  every solve with A.
+
+ρ = 1 / mean(‖B_i‖²) in the equilibrated variables (``border_weight``); the recovered S agreed with
+blocked solves to ≈1e-10 relative for ρ·S_ii from 1e-4 to 1e4 on the demo case (the round-off of
+those solves).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from .sparse import same_entries
+
+
+@dataclass
+class SchurComplement:
+    """S = B A⁻¹ Bᵀ for the rows ``B`` (unscaled, as given) through the dense Cholesky factor of
+    T = (ρ⁻¹I + S)⁻¹."""
+
+    B: sp.csr_matrix
+    rho: float
+    chol: tuple
+    seconds: float = 0.0
+    #: (rows R after the m rows of B, the block S[: m + |R|, m : m + |R|] of the rows [B; R]), stored by
+    #: the caller that solved for it (``solvers.schur.Workspace``) so that a later caller whose rows
+    #: extend [B; R] reuses it
+    extra: tuple[sp.csr_matrix, np.ndarray] | None = field(default=None, repr=False)
+
+    @classmethod
+    def from_bordered(cls, B: sp.csr_matrix, rho: float, T: np.ndarray) -> SchurComplement | None:
+        """From the Schur complement T of M on the border rows; None when T is not numerically
+        positive definite (then the caller solves for the columns of S instead)."""
+        try:
+            chol = sla.cho_factor(0.5 * (T + T.T), lower=True, overwrite_a=True, check_finite=False)
+        except (np.linalg.LinAlgError, sla.LinAlgError):
+            return None
+        return cls(B=B, rho=rho, chol=chol)
+
+    @property
+    def m(self) -> int:
+        return self.B.shape[0]
+
+    def matches(self, B: sp.spmatrix) -> bool:
+        """Whether ``B`` is the matrix this Schur complement was built for (same entries)."""
+        return same_entries(B, self.B)
+
+    def columns(self, cols: np.ndarray) -> np.ndarray:
+        """S[:, cols] = T⁻¹[:, cols] − ρ⁻¹ I[:, cols]  (m × len(cols))."""
+        cols = np.asarray(cols, dtype=np.int64)
+        E = np.zeros((self.m, cols.size))
+        E[cols, np.arange(cols.size)] = 1.0
+        X = sla.cho_solve(self.chol, E, check_finite=False)
+        X[cols, np.arange(cols.size)] -= 1.0 / self.rho
+        return X
+
+
+def border_weight(Bs: sp.csr_matrix) -> float:
+    """ρ = 1 / mean(‖B_i‖²) over the nonzero rows of the equilibrated border ``Bs`` (1 if none)."""
+    b2 = np.asarray(Bs.multiply(Bs).sum(axis=1)).ravel()
+    return 1.0 / float(np.mean(b2[b2 > 0])) if np.any(b2 > 0) else 1.0
+
+
+def bordered_upper(As: sp.csr_matrix, Bs: sp.csr_matrix, rho: float) -> sp.csr_matrix:
+    """The upper triangle of M = [[A + ρBᵀB, −ρBᵀ], [−ρB, ρI]] (``As``: the upper triangle of the
+    equilibrated A with sorted indices, as ``sparse.equilibrate(A, upper=True)`` returns it; its data
+    receive ρBᵀB in place) in CSR with sorted indices.
+
+    B's rows touch a few dofs each (one contact point), so ρBᵀB lies inside A's pattern and is added
+    at its positions, and only the rows of those dofs get border entries: the output is As's arrays
+    copied in runs of rows with the border entries placed after them, one allocation in all (at 1.1M
+    dofs 1.2 s instead of 3.8 s with a sparse sum and whole-matrix position arrays)."""
+    n, m = As.shape[0], Bs.shape[0]
+    K = sp.triu(rho * (Bs.T @ Bs), format="coo")
+    if not _add_inside(As, K):
+        As = As + K.tocsr()
+        As.sort_indices()
+    C = (-rho * Bs).T.tocsr()  # n × m, nonzero only in the rows of the contact dofs
+    C.sort_indices()
+    nk, nc = np.diff(As.indptr).astype(np.int64), np.diff(C.indptr).astype(np.int64)
+    indptr = np.zeros(n + m + 1, dtype=np.int64)
+    np.cumsum(nk + nc, out=indptr[1 : n + 1])
+    indptr[n + 1 :] = indptr[n] + np.arange(1, m + 1)
+    nnz = int(indptr[-1])
+    data = np.empty(nnz)
+    indices = np.empty(nnz, dtype=np.int64 if n + m > np.iinfo(np.int32).max else np.int32)
+    # rows of A between two border rows keep A's layout shifted by the border entries before them
+    brows = np.flatnonzero(nc)
+    starts = np.concatenate([[0], brows + 1])
+    stops = np.concatenate([brows + 1, [n]])
+    for r0, r1 in zip(starts, stops):
+        if r1 > r0:
+            a0, a1, shift = As.indptr[r0], As.indptr[r1], indptr[r0] - As.indptr[r0]
+            data[a0 + shift : a1 + shift] = As.data[a0:a1]
+            indices[a0 + shift : a1 + shift] = As.indices[a0:a1]
+    # border entries after the A part of their row
+    crow = np.repeat(np.arange(n), nc)
+    cpos = indptr[crow] + nk[crow] + (np.arange(C.nnz) - C.indptr[crow])
+    data[cpos], indices[cpos] = C.data, C.indices + n
+    data[indptr[n] :], indices[indptr[n] :] = rho, np.arange(n, n + m)
+    return sp.csr_matrix((data, indices, indptr), shape=(n + m, n + m), copy=False)
+
+
+def _add_inside(As: sp.csr_matrix, K: sp.coo_matrix) -> bool:
+    """As.data += K at K's positions when every entry of K lies in As's pattern (As: CSR, sorted
+    indices); False, with As unchanged, otherwise."""
+    if K.nnz == 0:
+        return True
+    rows = np.unique(K.row)
+    lens = np.diff(As.indptr)[rows].astype(np.int64)
+    pos = np.repeat(As.indptr[rows].astype(np.int64) - np.concatenate([[0], np.cumsum(lens)[:-1]]), lens)
+    pos += np.arange(pos.size)
+    n = np.int64(As.shape[1])
+    keys = np.repeat(rows.astype(np.int64), lens) * n + As.indices[pos]  # sorted: rows ascending, sorted columns
+    if keys.size == 0:
+        return False
+    want = K.row.astype(np.int64) * n + K.col
+    loc = np.minimum(np.searchsorted(keys, want), keys.size - 1)
+    if not np.array_equal(keys[loc], want):
+        return False
+    np.add.at(As.data, pos[loc], K.data)
+    return True
