@@ -17,8 +17,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .errors import InputError
 from .geometry import Shell
 from .loads import LineLoad, Loads, PointLoad
@@ -377,6 +375,3 @@ def build_mesh(case: Case, extra_x=(), extra_phi=()) -> ShellMesh:
         mesh = structured(sh, len(xs) - 1, len(ss) - 1, ms.pattern, x_nodes=xs, s_nodes=ss)
     return mesh.refined(ms.refine)
 
-
-def probe_points(case: Case) -> np.ndarray:
-    return np.array(case.probes, dtype=float).reshape(-1, 2)
