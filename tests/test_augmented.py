@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from synthetic import beam_qp, plate_qp, random_qp
 
 from shellcontact.errors import InputError
 from shellcontact.linalg import factorize
 from shellcontact.solvers import solve_active_set
 from shellcontact.solvers.augmented import AugmentedInverse, augmentation, solve_augmented
-from shellcontact.solvers.synthetic import beam_qp, plate_qp, random_qp
 
 TOL = 1e-10
 CASES = {

@@ -53,9 +53,7 @@ Modules: qp (data, feasibility check), kkt (residuals, duality gap), schur (fact
 S columns), substructure (a factorisation that also yields the dense S: ``factorize_contact``),
 screening (the Schur complement of the rows predicted to touch, the others verified), augmented (exact solve with
 one factorisation of A + B_I0ᵀRB_I0 when the active set is known beforehand), penalty,
-active_set (PDAS + fallback), dual (MPRGP with exact face solves, SMALBE for force control),
-synthetic (test problems; ``python -m shellcontact.solvers.synthetic`` prints iteration counts
-and timings).
+active_set (PDAS + fallback), dual (MPRGP with exact face solves, SMALBE for force control).
 """
 
 from .active_set import solve_active_set
