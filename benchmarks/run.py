@@ -1,4 +1,4 @@
-"""Run the benchmark targets of issue 5 and end with ONE JSON line of all targets.
+"""Run the benchmark targets of issues 5 and 11 and end with ONE JSON line of all targets.
 
     python benchmarks/run.py            # full sizes (assembly at 32k triangles, solve at ~430k unknowns,
                                         # scaling to ~1M dofs)
@@ -8,8 +8,9 @@ Each script prints its own table (peer, ratio, machine). The last line printed h
 
     {"targets": {name: {"value": ..., "goal": ..., "unit": ..., "peer": ...}, ...}}
 
-for assembly_speedup, contact_vs_linear, speedup_vs_qp_peer, seconds_1M_dofs, peak_gb_1M_dofs and
-force_digits_1M_dofs. A target that this run does not measure has value null and a "reason".
+for assembly_speedup, contact_vs_linear, speedup_vs_qp_peer, seconds_1M_dofs, peak_gb_1M_dofs,
+force_digits_1M_dofs, cli_help_seconds and import_seconds (start-up, benchmarks/startup.py). A target
+that this run does not measure has value null and a "reason".
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import common  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 NAMES = ("assembly_speedup", "contact_vs_linear", "speedup_vs_qp_peer", "seconds_1M_dofs", "peak_gb_1M_dofs",
-         "force_digits_1M_dofs")
+         "force_digits_1M_dofs", "cli_help_seconds", "import_seconds")
 GOALS = {
     "assembly_speedup": (30.0, "x over scikit-fem (basis + assembly)"),
     "contact_vs_linear": (1.5, "contact solve seconds / (factorise + solve) seconds"),
@@ -35,6 +36,8 @@ GOALS = {
     "seconds_1M_dofs": (60.0, "s, 1M-dof contact solve end to end"),
     "peak_gb_1M_dofs": (16.0, "GB peak memory, 1M-dof contact solve"),
     "force_digits_1M_dofs": (8.0, "significant digits of the contact force at 1M dofs"),
+    "cli_help_seconds": (0.3, "s, shellcontact --help in a fresh process (median)"),
+    "import_seconds": (0.5, "s, import shellcontact in a fresh process (median)"),
 }
 REASONS = {
     "contact_vs_linear": "benchmarks/contact_vs_linear.py did not run or failed",
@@ -42,6 +45,8 @@ REASONS = {
     "seconds_1M_dofs": "benchmarks/scale_1m.py did not run or failed",
     "peak_gb_1M_dofs": "benchmarks/scale_1m.py did not run or failed",
     "force_digits_1M_dofs": "benchmarks/force_digits.py did not run or failed",
+    "cli_help_seconds": "benchmarks/startup.py failed",
+    "import_seconds": "benchmarks/startup.py failed",
 }
 
 
@@ -70,6 +75,8 @@ def main(argv=None) -> dict:
     info = common.machine()
     print(common.machine_line(info))
     targets = {n: common.target(None, GOALS[n][0], GOALS[n][1], None, reason=REASONS.get(n, "")) for n in NAMES}
+    startup = run_script("startup", quick)  # start-up times against the peer commit: 1-2 minutes
+    targets.update((startup or {}).get("targets") or {})
     asm = run_script("assembly", quick)
     if asm:
         targets["assembly_speedup"] = asm["targets"]["assembly_speedup"]

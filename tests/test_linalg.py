@@ -49,7 +49,7 @@ def test_docs_list_the_registry():
 def test_schur_capability_is_declared(backend):
     """A backend computes Schur complements exactly when its class says so (``supports_schur``);
     otherwise ``border=`` is an InputError. Without a border, and after ``refactor``, ``schur`` is None."""
-    from shellcontact.solvers.synthetic import plate_qp
+    from synthetic import plate_qp
 
     qp = plate_qp(N=12)
     plain = linalg.factorize(qp.A, backend)
@@ -173,7 +173,7 @@ def test_extended_refinement_reaches_the_working_precision(backend):
     """Clamped beam with 1000 Hermite elements (cond(A) ≈ 1e12): with the residuals in extended
     precision (x86: 64-bit mantissa, ε_r ≈ 1e-19) the forward error drops by about ε/ε_r ≈ 1000
     (measured 4.0e-7 → 4.5e-10; 300 elements 9.3e-9 → 8.7e-12)."""
-    from shellcontact.solvers.synthetic import beam_qp
+    from synthetic import beam_qp
 
     A = beam_qp(n_el=1000).A
     rng = np.random.default_rng(3)

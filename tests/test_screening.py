@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from synthetic import beam_qp, plate_qp
 
 from shellcontact.errors import InputError
 from shellcontact.linalg import available_backends, factorize
@@ -16,7 +17,6 @@ from shellcontact.solvers import kkt_residuals, solve_active_set, solve_dual
 from shellcontact.solvers.schur import Workspace
 from shellcontact.solvers.screening import initial_rows, solve_screened
 from shellcontact.solvers.substructure import factorize_contact
-from shellcontact.solvers.synthetic import beam_qp, plate_qp
 
 HAS_PARDISO = "pardiso" in available_backends()
 CASES = {

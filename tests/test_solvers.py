@@ -14,6 +14,7 @@ import itertools
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from synthetic import beam_qp, interpolate_active, plate_qp, random_qp
 
 from shellcontact.errors import InputError, SolverError
 from shellcontact.linalg import factorize
@@ -27,7 +28,6 @@ from shellcontact.solvers import (
     solve_dual,
     solve_penalty,
 )
-from shellcontact.solvers.synthetic import _interpolate_active, beam_qp, plate_qp, random_qp
 
 TOL = 1e-10
 
@@ -329,7 +329,7 @@ def test_warm_start_and_nested_iteration() -> None:
     byU = solve_active_set(fine, initial_U=cold.U)
     assert byU.iterations == 1
     sc = solve_active_set(coarse)
-    init = _interpolate_active(coarse, sc.active, 16, fine, 32)
+    init = interpolate_active(coarse, sc.active, 16, fine, 32)
     nested = solve_active_set(fine, initial_active=init)
     dual_nested = solve_dual(fine, initial_active=init)
     dual_cold = solve_dual(fine)

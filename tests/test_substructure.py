@@ -12,12 +12,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from synthetic import beam_qp, plate_qp
 
 from shellcontact.linalg import available_backends, factorize
 from shellcontact.solvers import solve_active_set, solve_dual
 from shellcontact.solvers.schur import Workspace
 from shellcontact.solvers.substructure import factorize_contact
-from shellcontact.solvers.synthetic import beam_qp, plate_qp
 
 HAS_PARDISO = "pardiso" in available_backends()
 CASES = {

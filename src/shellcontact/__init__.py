@@ -4,15 +4,37 @@ Implements Bock & Lovíšek (1983): the linear Kirchhoff–Love cylindrical shel
 with P2 (u, v) and C¹ Argyris P5 (w) elements, and its contact with a rigid punch in the
 primal (penalty, active set) and dual (Lagrange multiplier) formulations. The mathematics
 is specified in MODEL.md (shared with this repository).
+
+The public names below are imported on first use (PEP 562), so ``import shellcontact`` and
+``shellcontact --help`` do not pay for NumPy, SciPy and scikit-fem.
 """
 
-from .analysis import Result, solve
-from .case import Case, case_from_dict, load_case
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from .errors import InputError, ShellContactError, SolverError
-from .geometry import Shell
-from .studies import convergence, sweep
+
+if TYPE_CHECKING:
+    from .analysis import Result, solve
+    from .case import Case, case_from_dict, load_case
+    from .geometry import Shell
+    from .studies import convergence, sweep
 
 __version__ = "0.1.0"
+
+# public name -> the submodule defining it, imported by __getattr__ on first access
+_LAZY = {
+    "Result": "analysis",
+    "solve": "analysis",
+    "Case": "case",
+    "case_from_dict": "case",
+    "load_case": "case",
+    "Shell": "geometry",
+    "convergence": "studies",
+    "sweep": "studies",
+}
 
 __all__ = [
     "Case",
@@ -28,3 +50,16 @@ __all__ = [
     "sweep",
     "__version__",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value  # later look-ups bypass __getattr__
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -369,6 +369,7 @@ def document(text: str) -> str:
     return "".join(out) + text[pos:]
 
 
+
 if __name__ == "__main__":  # python -m shellcontact.case docs/case-file.md: regenerate the key tables
     import sys
 

@@ -16,8 +16,6 @@ Case-file keys can be overridden with --set KEY=VALUE (dotted path, TOML literal
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import inspect
 import logging
 import os
 import sys
@@ -28,6 +26,9 @@ from . import __version__
 from .errors import InputError, SolverError
 from .solvers.methods import METHODS
 
+# Only the standard library and the three modules above at import time (the method registry imports its solvers
+# on first use): building the parser and --help must not import NumPy, SciPy, scikit-fem or matplotlib
+# (tests/test_startup.py); each command imports what it uses.
 EXIT_OK, EXIT_FAIL, EXIT_INPUT, EXIT_SOLVER = 0, 1, 2, 3
 
 log = logging.getLogger("shellcontact")
@@ -143,17 +144,13 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     check_output_dir(out, args.force)
     if args.force and out.is_dir():
         clear_run_files(out)
-    kwargs = {}
-    if con.bar and "progress" in inspect.signature(solve).parameters:
-        # solve(..., progress=f) calls f(iteration, residuals) once per solver iteration
-        def show(iteration: int, residuals: dict | None = None) -> None:
-            worst = max((v for v in (residuals or {}).values() if isinstance(v, float)), default=None)
-            con.status(f"solving: iteration {iteration}" + (f", largest residual {worst:.2e}" if worst else ""))
+    def show(iteration: int, residuals: dict | None = None) -> None:  # once per contact-solver iteration
+        worst = max((v for v in (residuals or {}).values() if isinstance(v, float)), default=None)
+        con.status(f"solving: iteration {iteration}" + (f", largest residual {worst:.2e}" if worst else ""))
 
-        kwargs["progress"] = show
     t0 = time.perf_counter()
     con.status("solving ...")
-    result = solve(case, **kwargs)
+    result = solve(case, progress=show if con.bar else None)
     con.clear()
     log.info("solved in %.3f s", time.perf_counter() - t0)
     summary = result.summary()
@@ -175,29 +172,19 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     return EXIT_OK
 
 
-def _lazy(module: str, func: str, what: str):
-    if importlib.util.find_spec(f"shellcontact.{module}") is None:
-        raise InputError(what, f"not available in this installation (module shellcontact.{module} is missing)")
-    mod = importlib.import_module(f"shellcontact.{module}")
-    return getattr(mod, func)
-
-
 def cmd_demo(args: argparse.Namespace, con: Console) -> int:
+    from .demo import run_demo
     from .files import check_output_dir
 
     out = Path(args.output)
     check_output_dir(out, args.force)
-    run_demo = _lazy("demo", "run_demo", "demo")
-    rc = run_demo(out, args.quiet)
-    return rc if isinstance(rc, int) else EXIT_OK
+    return run_demo(out, args.quiet)
 
 
 def cmd_verify(args: argparse.Namespace, con: Console) -> int:
-    run_verify = _lazy("verify", "run_verify", "verify")
-    rc = run_verify(quiet=args.quiet)
-    if isinstance(rc, bool) or rc is None:
-        return EXIT_OK if rc in (True, None) else EXIT_FAIL
-    return int(rc)
+    from .verify import run_verify
+
+    return run_verify(quiet=args.quiet)
 
 
 def cmd_sweep(args: argparse.Namespace, con: Console) -> int:

@@ -15,7 +15,6 @@ import tomllib
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from .case import Case, case_from_dict
 from .errors import InputError
 
 _BARE = re.compile(r"^[^\s\[\]{}\"'=,#]+$")  # a word or a path: taken as a string
@@ -98,9 +97,3 @@ def apply_overrides(data: dict[str, Any], assignments: Mapping[str, Any] | Itera
                 )
     return out
 
-
-def override_case(case: Case, assignments: Mapping[str, Any]) -> Case:
-    """A new validated case: ``case.raw`` with the assignments (dotted paths) applied."""
-    if not case.raw:
-        raise InputError("case", "overrides need a case built from a case file or dictionary (case.raw is empty)")
-    return case_from_dict(apply_overrides(case.raw, assignments), source=case.source)

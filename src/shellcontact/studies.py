@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import inspect
 import io as _io
 import json
 import logging
@@ -125,22 +124,6 @@ def write_csv(path: str | Path, rows: Sequence[dict[str, Any]]) -> Path:
     return Path(path)
 
 
-def read_csv(path: str | Path) -> list[dict[str, Any]]:
-    def conv(s: str) -> Any:
-        if s == "":
-            return None
-        try:
-            return int(s)
-        except ValueError:
-            try:
-                return float(s)
-            except ValueError:
-                return s
-
-    with open(path, newline="") as fh:
-        return [{k: conv(v) for k, v in r.items()} for r in csv.DictReader(fh)]
-
-
 # -- sweep ----------------------------------------------------------------------------------------------
 @dataclass
 class SweepResult:
@@ -180,10 +163,7 @@ def _load_record(steps: Path, index: int, fingerprint: str) -> dict[str, Any] | 
 def _solve_summary(case: Case, previous=None):
     from .analysis import solve
 
-    kwargs = {}
-    if previous is not None and "warm_start" in inspect.signature(solve).parameters:
-        kwargs["warm_start"] = previous
-    result = solve(case, **kwargs)
+    result = solve(case, warm_start=previous)
     return result, result.summary()
 
 

@@ -42,19 +42,29 @@ Large problems (what ``analysis.solve`` does for the exact methods from 40k unkn
 ``extended=True`` (active set, dual) refines the final solves in extended precision.
 
 Modules: qp (data, feasibility check), kkt (residuals, duality gap), schur (factorisation and
-S columns), substructure (when the factorisation also yields the dense S: ``factorize_contact``),
+S columns), substructure (a factorisation that also yields the dense S: ``factorize_contact``),
 screening (the Schur complement of the rows predicted to touch, the others verified), penalty,
-active_set (PDAS + fallback), dual (MPRGP with exact face solves, SMALBE for force control),
-synthetic (test problems; ``python -m shellcontact.solvers.synthetic`` prints iteration counts
-and timings).
+active_set (PDAS + fallback), dual (MPRGP with exact face solves, SMALBE for force control).
 """
 
-from .active_set import solve_active_set
-from .dual import solve_dual
-from .kkt import dual_value, kkt_residuals, lagrangian
-from .penalty import solve_penalty
-from .qp import ContactQP, ContactSolution, InfeasibleProblemError, check_feasibility
+from __future__ import annotations
 
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .active_set import solve_active_set
+    from .dual import solve_dual
+    from .kkt import dual_value, kkt_residuals, lagrangian
+    from .penalty import solve_penalty
+    from .qp import ContactQP, ContactSolution, InfeasibleProblemError, check_feasibility
+
+# the public names, imported on first use: reading the method registry (solvers.methods) imports no solver
+_LAZY = {
+    "solve_active_set": "active_set", "solve_dual": "dual", "dual_value": "kkt", "kkt_residuals": "kkt",
+    "lagrangian": "kkt", "solve_penalty": "penalty", "ContactQP": "qp", "ContactSolution": "qp",
+    "InfeasibleProblemError": "qp", "check_feasibility": "qp",
+}
 __all__ = [
     "ContactQP",
     "ContactSolution",
@@ -67,3 +77,16 @@ __all__ = [
     "solve_dual",
     "solve_penalty",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value  # later look-ups bypass __getattr__
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,5 +1,5 @@
 """Synthetic contact QPs that mimic the shell problem (fourth order, conditioning ~h⁻⁴, rows of
-B with up to five entries mixing deflection and slopes), for tests and timings.
+B with up to five entries mixing deflection and slopes), for the solver tests.
 
 * ``beam_qp``: clamped Euler–Bernoulli beam (Hermite cubics, dofs w, w'), pressed on its top
   fibre (ζ = half thickness) by a rigid cylinder — signed distance Z, full kinematics
@@ -7,20 +7,15 @@ B with up to five entries mixing deflection and slopes), for tests and timings.
 * ``plate_qp``: Kirchhoff plate, finite-difference biharmonic h²LᵀL (L the Dirichlet 5-point
   Laplacian), pressed by a sphere; B rows use w and central-difference slopes (five entries).
 * ``random_qp``: small random SPD problem with random sparse B.
-
-``python -m shellcontact.solvers.synthetic [--sizes 100 200 300]`` prints iteration counts and
-timings of the three solvers against one factorise + solve of A.
+* ``interpolate_active``: a coarse ``plate_qp`` active set carried to a finer one (nested start).
 """
 
 from __future__ import annotations
 
-import argparse
-import time
-
 import numpy as np
 import scipy.sparse as sp
 
-from .qp import ContactQP
+from shellcontact.solvers.qp import ContactQP
 
 
 def beam_qp(
@@ -131,60 +126,7 @@ def random_qp(n: int = 30, m: int = 10, seed: int = 0, force: bool = False) -> C
     return ContactQP(A, F, sp.csr_matrix(B), G, w, D=D, P=np.array([2.0]))
 
 
-def _main() -> None:  # pragma: no cover - timing script
-    from ..linalg import factorize
-    from . import solve_active_set, solve_dual, solve_penalty
-
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--sizes", type=int, nargs="+", default=[64, 128, 256])
-    ap.add_argument("--problem", choices=["plate", "beam"], default="plate")
-    ap.add_argument("--epsilon", type=float, default=1e-8)
-    ap.add_argument("--zone", type=float, default=0.35, help="plate: candidate radius")
-    ap.add_argument("--load", type=float, default=0.0, help="plate: uniform load toward the punch")
-    ap.add_argument("--indentation", type=float, default=0.002)
-    ap.add_argument("--radius", type=float, default=0.5)
-    args = ap.parse_args()
-    print(f"{'N':>5} {'n':>8} {'m':>6} {'solver':<22} {'iter':>5} {'active':>6} {'solves':>7} "
-          f"{'time s':>8} {'ratio':>6}  worst residual")
-    prev = None
-    for N in args.sizes:
-        if args.problem == "plate":
-            qp = plate_qp(N, radius=args.radius, indentation=args.indentation, zone=args.zone, load=args.load)
-        else:
-            qp = beam_qp(N)
-        t = time.perf_counter()
-        fact = factorize(qp.A)
-        fact.solve(qp.F)
-        base = time.perf_counter() - t
-        print(f"{N:5d} {qp.n:8d} {qp.m:6d} {'factorise+solve':<22} {'':>5} {'':>6} {1:7d} {base:8.3f} {1.0:6.2f}")
-        runs = [
-            ("active-set", lambda q=qp: solve_active_set(q)),
-            ("active-set (shared F)", lambda q=qp, f=fact: solve_active_set(q, factorization=f)),
-            ("dual", lambda q=qp: solve_dual(q)),
-            ("penalty schur", lambda q=qp: solve_penalty(q, epsilon=args.epsilon)),
-            ("penalty refactorize", lambda q=qp: solve_penalty(q, epsilon=args.epsilon, hessian="refactorize")),
-        ]
-        if prev is not None and args.problem == "plate":
-            Nc, act_c, qpc = prev
-            init = _interpolate_active(qpc, act_c, Nc, qp, N)
-            runs.append(("active-set nested", lambda q=qp, i=init: solve_active_set(q, initial_active=i)))
-        for name, run in runs:
-            t = time.perf_counter()
-            try:
-                sol = run()
-            except Exception as exc:  # noqa: BLE001 — report and go on
-                print(f"{N:5d} {qp.n:8d} {qp.m:6d} {name:<22} failed: {str(exc)[:80]}")
-                continue
-            el = time.perf_counter() - t
-            worst = max(sol.info["scaled_residuals"], key=sol.info["scaled_residuals"].get)
-            print(f"{N:5d} {qp.n:8d} {qp.m:6d} {name:<22} {sol.iterations:5d} {int(sol.active.sum()):6d} "
-                  f"{int(sol.timings.get('n_solves', 0)):7d} {el:8.3f} {el / base:6.2f}  "
-                  f"{worst}={sol.info['scaled_residuals'][worst]:.1e}")
-            if name == "active-set":
-                prev = (N, sol.active, qp)
-
-
-def _interpolate_active(qpc: ContactQP, act_c: np.ndarray, Nc: int, qpf: ContactQP, Nf: int) -> np.ndarray:
+def interpolate_active(qpc: ContactQP, act_c: np.ndarray, Nc: int, qpf: ContactQP, Nf: int) -> np.ndarray:
     """Nearest coarse vertex's active flag for each fine candidate (plate_qp grids)."""
     def coords(qp: ContactQP, N: int) -> np.ndarray:
         idx = qp.B.indices.reshape(-1, 5)[:, 2]  # sorted row: the centre is the middle entry
@@ -194,7 +136,3 @@ def _interpolate_active(qpc: ContactQP, act_c: np.ndarray, Nc: int, qpf: Contact
     pc, pf = coords(qpc, Nc), coords(qpf, Nf)
     d = np.linalg.norm(pf[:, None, :] - pc[None, :, :], axis=2)
     return act_c[np.argmin(d, axis=1)]
-
-
-if __name__ == "__main__":  # pragma: no cover
-    _main()
