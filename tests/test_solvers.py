@@ -298,7 +298,7 @@ def test_penalty_parameter_rejected(eps) -> None:
     qp = random_qp()
     with pytest.raises(InputError) as exc:
         solve_penalty(qp, epsilon=eps)
-    assert exc.value.field == "solver.penalty"
+    assert exc.value.field == "epsilon"
     with pytest.raises(InputError):
         solve_penalty(qp, epsilon=1e-6, continuation=[1e-3, eps])
 

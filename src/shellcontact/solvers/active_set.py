@@ -33,32 +33,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import InputError, SolverError
+from ..errors import SolverError
 from ..linalg import Factorization
 from .dual import dual_core
-from .qp import ContactQP, ContactSolution, History
+from .qp import ContactQP, ContactSolution, History, as_mask, check_arguments, check_growth
 from .schur import Workspace, default_growth
-
-
-def _check_common(tol: float, max_iterations: int) -> None:
-    if not (np.isfinite(tol) and tol > 0):
-        raise InputError("solver.tolerance", f"must be a positive number, got {tol!r}")
-    if int(max_iterations) != max_iterations or max_iterations < 1:
-        raise InputError("solver.max_iterations", f"must be a positive integer, got {max_iterations!r}")
-
-
-def _as_mask(active: np.ndarray, m: int) -> np.ndarray:
-    a = np.asarray(active)
-    if a.dtype == bool:
-        if a.shape != (m,):
-            raise InputError("solver.initial_active", f"boolean mask must have length {m}, got {a.shape}")
-        return a.copy()
-    mask = np.zeros(m, dtype=bool)
-    idx = a.astype(np.int64).reshape(-1)
-    if idx.size and (idx.min() < 0 or idx.max() >= m):
-        raise InputError("solver.initial_active", f"indices must lie in [0, {m})")
-    mask[idx] = True
-    return mask
 
 
 def solve_active_set(
@@ -85,14 +64,13 @@ def solve_active_set(
     of 12 iterations, contact solve 6.1-6.7 s instead of 7.2-8.4 s with max_add=8; raise
     ``max_iterations`` accordingly). ``extended``: the final solves with mixed-precision
     refinement (``schur.Workspace``)."""
-    _check_common(tol, max_iterations)
+    check_arguments(tol, max_iterations)
     ws = Workspace(qp, factorization, extended=extended)
     live = ws.live
     k = qp.k
     rhs2 = -qp.P if k else None
     growth = default_growth(ws) if growth is None else growth
-    if not (0.0 <= growth < 1.0):
-        raise InputError("solver.growth", f"must lie in [0, 1), got {growth!r}")
+    check_growth(growth)
 
     def violated(g: np.ndarray, I: np.ndarray) -> np.ndarray:
         v = ~I & live & (g < 0)
@@ -105,7 +83,7 @@ def solve_active_set(
         return v
 
     if initial_active is not None:
-        I = _as_mask(initial_active, qp.m) & live
+        I = as_mask(initial_active, qp.m) & live
     elif initial_U is not None:
         I = (qp.gap(np.asarray(initial_U, dtype=float)) <= 1e-6 * ws.lscale) & live
     else:

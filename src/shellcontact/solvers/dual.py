@@ -39,9 +39,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import InputError, SolverError
+from ..errors import SolverError
 from ..linalg import Factorization
-from .qp import ContactQP, ContactSolution, History
+from .qp import ContactQP, ContactSolution, History, as_mask, check_arguments, check_growth
 from .schur import Workspace, default_growth
 
 _NEG = 1e-13  # relative size below which a negative face-minimiser component counts as zero
@@ -249,22 +249,20 @@ def solve_dual(
     active set (``initial_active``: the face solve on it, clipped at 0). ``growth`` θ = 0 gives
     MPRGP's full proportioning (default ``schur.default_growth``: 0.9, or 0 with the dense Schur
     complement). ``extended``: the final solves with mixed-precision refinement (``schur.Workspace``)."""
-    from .active_set import _as_mask, _check_common
 
-    _check_common(tol, max_iterations)
+    check_arguments(tol, max_iterations)
     ws = Workspace(qp, factorization, extended=extended)
     history: list = History(callback)
     lam0 = np.zeros(qp.m)
     if initial_lambda is not None:
         lam0 = np.maximum(np.asarray(initial_lambda, dtype=float).reshape(qp.m), 0.0)
     elif initial_active is not None:
-        idx = np.flatnonzero(_as_mask(initial_active, qp.m) & ws.live)
+        idx = np.flatnonzero(as_mask(initial_active, qp.m) & ws.live)
         if idx.size:
             x, _, _ = ws.face_solve(idx, -ws.c0[idx], None if qp.k == 0 else -qp.P)
             lam0[idx] = np.maximum(x, 0.0)
     growth = default_growth(ws) if growth is None else growth
-    if not (0.0 <= growth < 1.0):
-        raise InputError("solver.growth", f"must lie in [0, 1), got {growth!r}")
+    check_growth(growth)
     lam, delta, its = dual_core(ws, lam0, tol, max_iterations, history, gamma, rho, growth=growth)
     faces = int(sum(r.get("face_solves", 0) for r in history))
     return ws.finish_exact(lam, delta, tol, "dual", its, history, info={"face_solves": faces})

@@ -30,9 +30,8 @@ import scipy.sparse as sp
 
 from ..errors import InputError, SolverError
 from ..linalg import Factorization, factorize
-from .active_set import _check_common
 from .kkt import TINY, evaluate
-from .qp import ContactQP, ContactSolution, History
+from .qp import ContactQP, ContactSolution, History, check_arguments
 from .schur import Workspace
 
 
@@ -40,9 +39,9 @@ def _check_eps(epsilon: float) -> float:
     try:
         e = float(epsilon)
     except (TypeError, ValueError):
-        raise InputError("solver.penalty", f"must be a positive number, got {epsilon!r}") from None
+        raise InputError("epsilon", f"must be a positive number, got {epsilon!r}") from None
     if not (np.isfinite(e) and e > 0):
-        raise InputError("solver.penalty", f"the penalty parameter ε must be > 0, got {epsilon!r}")
+        raise InputError("epsilon", f"the penalty parameter ε must be > 0, got {epsilon!r}")
     return e
 
 
@@ -61,12 +60,12 @@ def solve_penalty(
     order, each warm-starting the next). ``max_iterations`` bounds Newton steps per ε."""
     eps_final = _check_eps(epsilon)
     seq = [_check_eps(e) for e in (continuation or [])] + [eps_final]
-    _check_common(tol, max_iterations)
+    check_arguments(tol, max_iterations)
     if hessian not in ("schur", "refactorize"):
-        raise InputError("solver.penalty_hessian", f"must be 'schur' or 'refactorize', got {hessian!r}")
+        raise InputError("hessian", f"must be 'schur' or 'refactorize', got {hessian!r}")
     if hessian == "refactorize":
         if qp.k:
-            raise InputError("solver.penalty_hessian", "'refactorize' does not support force control; use 'schur'")
+            raise InputError("hessian", "'refactorize' does not support force control; use 'schur'")
         return _penalty_refactorize(qp, seq, tol, max_iterations, factorization, initial_U, callback)
     ws = Workspace(qp, factorization)
     k = qp.k

@@ -142,6 +142,35 @@ class ContactQP:
         return self.force_labels[j] if self.force_labels is not None else f"force column {j}"
 
 
+def check_arguments(tol: float, max_iterations: int) -> None:
+    """The solvers' common arguments (a direct API: the case file has validated its own values)."""
+    if not (np.isfinite(tol) and tol > 0):
+        raise InputError("tol", f"must be a positive number, got {tol!r}")
+    if int(max_iterations) != max_iterations or max_iterations < 1:
+        raise InputError("max_iterations", f"must be a positive integer, got {max_iterations!r}")
+
+
+def as_mask(active: np.ndarray, m: int) -> np.ndarray:
+    """A starting active set given as a boolean mask or as row indices → a boolean mask of length m."""
+    a = np.asarray(active)
+    if a.dtype == bool:
+        if a.shape != (m,):
+            raise InputError("initial_active", f"boolean mask must have length {m}, got {a.shape}")
+        return a.copy()
+    mask = np.zeros(m, dtype=bool)
+    idx = a.astype(np.int64).reshape(-1)
+    if idx.size and (idx.min() < 0 or idx.max() >= m):
+        raise InputError("initial_active", f"indices must lie in [0, {m})")
+    mask[idx] = True
+    return mask
+
+
+def check_growth(growth: float) -> None:
+    """The working-set growth θ of the active-set and dual methods (``schur.default_growth``)."""
+    if not (0.0 <= growth < 1.0):
+        raise InputError("growth", f"must lie in [0, 1), got {growth!r}")
+
+
 def _vector(name: str, v: Any, size: int) -> np.ndarray:
     a = np.asarray(v, dtype=float).reshape(-1)
     if a.shape != (size,):
