@@ -129,7 +129,7 @@ PROBE = Table("probes", (
 
 SOLVER = Table("solver", (
     Key("method", "choice", "exact primal (primal–dual active set), the dual QP (7.9) (MPRGP), or the penalty method "
-        "(6.7); `--method` overrides", choices=tuple(METHODS), default=SolverOptions.method),
+        "(6.7); `--method` overrides", choices=METHODS, default=SolverOptions.method),
     Key("tolerance", "number", "every scaled KKT residual must fall below it (penalty: the backward error of the "
         "penalised equation)", lo=0.0, hi=1.0, open=("lo", "hi"), default=SolverOptions.tolerance),
     Key("penalty", "number", "ε of the penalty method: springs of stiffness 1/ε per unit area; the penetration is "

@@ -15,7 +15,7 @@ import difflib
 import importlib
 import math
 import numbers
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -105,7 +105,7 @@ class Key:
     lo: float | None = None
     hi: float | None = None
     open: tuple[str, ...] = ()
-    choices: tuple[Any, ...] = ()
+    choices: Collection[Any] = ()  # a registry (dict) stays live: names registered later are allowed
     length: int = 3
     angle: bool = False
     table: Table | None = None

@@ -18,14 +18,15 @@ one-line description and priority. ``pardiso`` (MKL PARDISO), ``cholmod`` (CHOLM
 Adding a backend: a module here with a ``Factorization`` subclass (``backend`` name, the
 ``_factor``, ``_solve_factors``, ``_refactor``, ``_factor_info`` and ``free`` methods, and
 ``supports_schur``/``_factor_bordered`` if it can) and an ``available()`` check, plus one ``Backend``
-entry in ``registry.BACKENDS``; ``shellcontact info`` and the docs' table follow the registry.
+entry in ``registry.BACKENDS`` (or ``register(Backend(...))`` from a plug-in); ``shellcontact info``
+and the docs' table follow the registry.
 
 A matrix that is singular or not positive definite raises SolverError whatever the backend.
 """
 
 from .bordered import SchurComplement
 from .protocol import Factorization
-from .registry import BACKENDS, Backend, available_backends, default_backend, factorize, resolve_backend
+from .registry import BACKENDS, Backend, available_backends, default_backend, factorize, register, resolve_backend
 
 __all__ = [
     "BACKENDS",
@@ -35,5 +36,6 @@ __all__ = [
     "available_backends",
     "default_backend",
     "factorize",
+    "register",
     "resolve_backend",
 ]

@@ -44,6 +44,15 @@ BACKENDS: dict[str, Backend] = {b.name: b for b in sorted((
 ), key=lambda b: b.priority)}
 
 
+def register(backend: Backend) -> Backend:
+    """Add a backend (a module of this package or a plug-in) to ``BACKENDS``."""
+    if backend.name in BACKENDS or backend.name == "auto":
+        raise ValueError(f"backend {backend.name!r} is registered already")
+    BACKENDS[backend.name] = backend
+    _available.cache_clear()
+    return backend
+
+
 @functools.cache
 def _available() -> tuple[str, ...]:
     return tuple(name for name, b in BACKENDS.items() if b.available())

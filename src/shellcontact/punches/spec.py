@@ -25,7 +25,7 @@ ZONE = Table("zone", (
 ))
 
 PUNCH = Table("punch", (
-    Key("shape", "choice", "the body; its own keys below", choices=tuple(SHAPES)),
+    Key("shape", "choice", "the body; its own keys below", choices=SHAPES),
     Key("inverted", "bool", "the punch is the **outside** of the shape (Z → −Z): an inverted coaxial cylinder is a "
         "sleeve around the pipe (or a die), an inverted cylinder below a pipe a saddle", default=False),
     Key("side", "choice", "the surface it acts on: ζ_c = +t/2 (outer) or −t/2 (inner)", choices=("outer", "inner"),
