@@ -8,7 +8,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test test-serial check-fresh lint bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -22,6 +22,16 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
 	$(BIN)/python -m pytest -n 2 -q
+
+# the suite without pytest-xdist (one process), as a check that no test depends on the worker split
+test-serial: $(STAMP)
+	$(BIN)/python -m pytest -q -p no:xdist
+
+# what lands: a fresh clone of the committed HEAD, with ../shared beside it, runs `make test` from scratch
+check-fresh:
+	@tmp=$$(mktemp -d) && git clone -q "$(CURDIR)" "$$tmp/main" && ln -s "$(abspath ../shared)" "$$tmp/shared" \
+	  && echo "fresh clone of $$(git rev-parse --short HEAD) in $$tmp/main" \
+	  && $(MAKE) -C "$$tmp/main" test; rc=$$?; rm -rf "$$tmp"; exit $$rc
 
 bench: $(STAMP)
 	$(BIN)/python -c "import osqp, clarabel" 2>/dev/null || $(BIN)/python -m pip install --quiet -e ".[bench]"
