@@ -15,6 +15,7 @@ interpolated onto the fine mesh; ``warm_start=`` does the same from any earlier 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -179,6 +180,28 @@ class Result:
 
         return write_report(self, path)
 
+    @functools.cached_property
+    def stresses(self) -> dict[str, dict]:
+        """Per surface (bottom, middle, top): the largest von Mises stress and where, the extreme principal
+        stresses, and the utilisation with ``[material] yield_stress`` (``ShellSolution.stress_extremes``)."""
+        return self.solution.stress_extremes(self.case.yield_stress)
+
+    def warnings(self) -> list[str]:
+        """What changes the meaning of this result: contact beyond its zone or between its constraint
+        points, and stresses beyond yield."""
+        out = self.contact.warnings() if self.contact is not None else []
+        y = self.case.yield_stress
+        if y is not None:
+            worst = max(self.stresses.items(), key=lambda kv: kv[1]["von_mises_max"])
+            name, s = worst
+            if s["utilisation_max"] > 1.0:
+                out.append(
+                    f"linear elastic result beyond yield: von Mises stress {s['von_mises_max']:.4g} on the {name} "
+                    f"surface at x = {s['at']['x']:.4g}, phi = {s['at']['phi']:.4g} deg is {s['utilisation_max']:.3g} "
+                    "x material.yield_stress; the stresses past yield are not physical (reduce the load or "
+                    "indentation, or use a plastic analysis)")
+        return out
+
     def summary(self) -> dict[str, Any]:
         sol = self.solution
         out: dict[str, Any] = {
@@ -189,6 +212,7 @@ class Result:
             "energy": sol.energy,
             "max_abs_w": sol.max_abs_w,
             "probes": [sol.probe(x, phi) for x, phi in self.case.probes],
+            "stresses": self.stresses,
             "reaction_resultant": [float(c) for c in sol.reaction_resultant()],
         }
         if self.contact is not None:
@@ -204,7 +228,7 @@ class Result:
             out["iterations"] = int(cs.iterations)
             if "penalty" in self.info:
                 out["penalty"] = self.info["penalty"]
-            out["warnings"] = self.contact.warnings()
+        out["warnings"] = self.warnings()
         out["backend"] = self.info.get("backend")
         out["timings"] = dict(self.timings)
         return out

@@ -63,6 +63,10 @@ MATERIAL = Table("material", (
         default=None, default_doc="required (orthotropic)"),
     Key("nu12", "number", "orthotropic: Poisson's ratio ν12 (ν21 = ν12 E2/E1)", default=None,
         default_doc="required (orthotropic)", allowed="ν12² E2/E1 < 1"),
+    Key("yield_stress", "number", "von Mises stress at which the material yields: the summary and fields.vtu "
+        "report the utilisation σ_v/yield_stress, and a utilisation above 1 is warned about (the linear elastic "
+        "result is then beyond yield). May be the only key, beside `shell.young`/`shell.poisson`",
+        unit="force/length²", lo=0.0, open=("lo",), default=None, default_doc="none"),
 ))
 
 SUPPORTS_TABLE = Table("supports", tuple(
@@ -189,16 +193,20 @@ class Case:
     probes: list[tuple[float, float]] = field(default_factory=list)  # (x, φ in radians)
     solver: SolverOptions = field(default_factory=SolverOptions)
     punches: tuple[PunchSpec, ...] = ()
+    yield_stress: float | None = None  # [material] yield_stress: utilisation σ_v / yield_stress
     source: Path | None = None
     raw: dict[str, Any] = field(default_factory=dict)
 
 
-def parse_material(shell: dict[str, Any], raw: Any) -> Material:
-    """The material (MODEL.md §3): a ``[material]`` table, or ``shell.young``/``shell.poisson`` (isotropic).
+def parse_material(shell: dict[str, Any], raw: Any, v: dict[str, Any] | None = None) -> Material:
+    """The elastic law (MODEL.md §3): a ``[material]`` table, or ``shell.young``/``shell.poisson`` (isotropic).
 
-    ``shell`` holds the parsed ``[shell]`` values.
+    ``shell`` holds the parsed ``[shell]`` values, ``v`` the parsed ``raw`` (if already parsed); a
+    ``[material]`` table with only ``yield_stress`` leaves the law to ``[shell]``.
     """
     given = [f"shell.{k}" for k in ("young", "poisson") if shell[k] is not None]
+    if isinstance(raw, dict) and set(raw) <= {"yield_stress"}:
+        raw = None
     if raw is None:
         for k in ("young", "poisson"):
             if shell[k] is None:
@@ -207,14 +215,14 @@ def parse_material(shell: dict[str, Any], raw: Any) -> Material:
             return MATERIALS["isotropic"](shell["young"], shell["poisson"])
         except InputError as exc:  # name the key the user wrote
             raise InputError(exc.field.replace("material.", "shell.", 1), exc.message) from None
-    v = MATERIAL.parse(raw)
+    v = MATERIAL.parse(raw) if v is None else v
     if given:
         raise InputError("material", f"the material is given twice, in [material] and as {' and '.join(given)}; "
                          "keep one (a [material] table, or shell.young and shell.poisson)")
     cls = MATERIALS[v["model"]]
     keys = [f.name for f in dataclasses.fields(cls)]
     for k in raw:
-        if k not in ("model", *keys):
+        if k not in ("model", "yield_stress", *keys):
             raise InputError(f"material.{k}", f"is not a key of model = {v['model']!r}, whose keys are "
                              f"{', '.join(keys)}")
     for k in keys:
@@ -223,7 +231,7 @@ def parse_material(shell: dict[str, Any], raw: Any) -> Material:
     return cls(*(v[k] for k in keys))
 
 
-def parse_shell(d: Any, material: Any = None) -> Shell:
+def parse_shell(d: Any, material: Any = None, material_values: dict[str, Any] | None = None) -> Shell:
     v = SHELL.parse(d)
     full = v["full"]
     if full and v["angle"] is not None:
@@ -234,7 +242,8 @@ def parse_shell(d: Any, material: Any = None) -> Shell:
     if not full and not alpha < beta:
         raise InputError("shell.angle", f"needs alpha < beta, got [{math.degrees(alpha):g}, {math.degrees(beta):g}]")
     return Shell(radius=v["radius"], length=v["length"], thickness=v["thickness"],
-                 material=parse_material(v, material), alpha=alpha, beta=beta, full=full, x_start=v["x_start"])
+                 material=parse_material(v, material, material_values), alpha=alpha, beta=beta, full=full,
+                 x_start=v["x_start"])
 
 
 def parse_mesh(d: Any) -> MeshSpec:
@@ -294,7 +303,8 @@ def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
     check_unknown("", data, CASE.names())
     if "shell" not in data:
         raise InputError("shell", "section [shell] is required")
-    shell = parse_shell(data["shell"], data.get("material"))
+    material = MATERIAL.parse(data["material"]) if "material" in data else None
+    shell = parse_shell(data["shell"], data.get("material"), material)
     sup = SUPPORTS_TABLE.parse(data.get("supports", {}))
     default = "periodic" if shell.full else "clamped"
     given = data.get("supports", {})
@@ -325,6 +335,7 @@ def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
         probes=probes,
         solver=solver,
         punches=punches,
+        yield_stress=None if material is None else material["yield_stress"],
         source=None if source is None else Path(source),
         raw=data,
     )

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .results import SURFACES
+
 #: per-vertex contact arrays, in the order they are written
 CONTACT_FIELDS = ("contact_status", "contact_pressure", "gap", "contact_force", "contact_force_vector")
 
@@ -110,9 +112,29 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
 
 
 # -- fields on the vertices --------------------------------------------------------------------------
+def surface_vertex_fields(sol, x: np.ndarray, phi: np.ndarray, values: dict, yield_stress: float | None = None
+                          ) -> dict[str, np.ndarray]:
+    """Strains and stresses on each surface (bottom, middle, top) at the points (x, φ): ``strain_<s>``
+    (n, 3: ε11, ε22, γ12), ``stress_<s>`` (n, 3: σ11, σ22, σ12), ``von_mises_<s>``, ``principal_<s>``
+    (n, 2: σ_1 ≥ σ_2), ``principal_angle_<s>`` (degrees from x) and, with a yield stress,
+    ``utilisation_<s>`` = σ_v / yield_stress. ``values``: ``sol.evaluate(x, phi)``."""
+    out: dict[str, np.ndarray] = {}
+    for name in SURFACES:
+        st = sol.surface(x, phi, name, values)
+        out[f"strain_{name}"] = st.strain.T.copy()
+        out[f"stress_{name}"] = st.stress.T.copy()
+        out[f"von_mises_{name}"] = st.von_mises
+        out[f"principal_{name}"] = st.principal.T.copy()
+        out[f"principal_angle_{name}"] = st.principal_angle
+        if yield_stress is not None:
+            out[f"utilisation_{name}"] = st.von_mises / yield_stress
+    return out
+
+
 def vertex_fields(result) -> dict[str, np.ndarray]:
     """Arrays at the mesh vertices: x, phi_deg, u, v, w, displacement (nv, 3), deformed (nv, 3),
-    resultants N11 … M12 and the contact fields when present."""
+    resultants N11 … M12, strains and stresses on the three surfaces (``surface_vertex_fields``) and
+    the contact fields when present."""
     sol = result.solution
     mesh = sol.space.mesh
     x, s = mesh.p
@@ -130,6 +152,7 @@ def vertex_fields(result) -> dict[str, np.ndarray]:
         "thickness": sol.shell.t(x, phi),
     }
     out.update({k: np.asarray(val, float) for k, val in sol.resultants(x, phi, values=d).items()})
+    out.update(surface_vertex_fields(sol, x, phi, d, result.case.yield_stress))
     out.update(contact_vertex_fields(result))
     return out
 

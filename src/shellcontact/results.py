@@ -1,4 +1,15 @@
-"""Post-processing of a discrete solution U: fields, resultants, stresses, energy, reactions."""
+"""Post-processing of a discrete solution U: fields, resultants, strains and stresses through the
+thickness, energy, reactions.
+
+Surfaces: ``bottom`` (inner, ζ = −t/2), ``middle`` (ζ = 0), ``top`` (outer, ζ = +t/2). At distance ζ
+from the middle surface (MODEL.md §3, Kirchhoff–Love, the model's own strains of §2)
+
+    ε(ζ) = (ε11, ε22, γ12) + ζ (κ11, κ22, 2κ12),    σ(ζ) = Q ε(ζ)   (plane stress, Q of the material),
+
+von Mises σ_v = √(σ11² − σ11σ22 + σ22² + 3σ12²), principal stresses σ_{1,2} = (σ11 + σ22)/2 ±
+√(((σ11 − σ22)/2)² + σ12²) and the angle θ of σ_1 from the axis x toward the circumference,
+tan 2θ = 2σ12/(σ11 − σ22). Components are in the shell's local frame (e1 = axial, e2 = circumferential).
+"""
 
 from __future__ import annotations
 
@@ -10,6 +21,35 @@ import scipy.sparse as sp
 from .geometry import Shell, rigid_motion, to_global
 from .model import RESULTANTS, resultants, strains
 from .spaces import QUANTITIES, ShellSpace
+
+#: the surfaces where strains and stresses are reported: ζ as a fraction of the thickness t
+SURFACES = {"bottom": -0.5, "middle": 0.0, "top": 0.5}
+
+
+@dataclass(frozen=True)
+class SurfaceState:
+    """Strain (ε11, ε22, γ12) and stress (σ11, σ22, σ12) at points of one surface, shapes (3, n)."""
+
+    strain: np.ndarray
+    stress: np.ndarray
+
+    @property
+    def von_mises(self) -> np.ndarray:
+        s11, s22, s12 = self.stress
+        return np.sqrt(np.maximum(s11**2 - s11 * s22 + s22**2 + 3.0 * s12**2, 0.0))
+
+    @property
+    def principal(self) -> np.ndarray:
+        """(σ_1, σ_2), σ_1 ≥ σ_2, shape (2, n)."""
+        s11, s22, s12 = self.stress
+        mean, radius = 0.5 * (s11 + s22), np.hypot(0.5 * (s11 - s22), s12)
+        return np.stack([mean + radius, mean - radius])
+
+    @property
+    def principal_angle(self) -> np.ndarray:
+        """Angle of σ_1 from the axis x toward the circumferential direction, degrees in (−90, 90]."""
+        s11, s22, s12 = self.stress
+        return np.degrees(0.5 * np.arctan2(2.0 * s12, s11 - s22))
 
 
 @dataclass
@@ -56,15 +96,13 @@ class ShellSolution:
         r = resultants(self.shell, self.strains(x, phi, values), self.shell.t(x, phi))
         return dict(zip(RESULTANTS, r))
 
-    def stresses(self, x, phi, zeta) -> dict[str, np.ndarray]:
-        """Stresses σ11, σ22, σ12 at distance ζ from the middle surface: σ = Q (ε + ζ κ), κ = (κ11, κ22, 2κ12)
-        (MODEL.md §3), written N/t + 12 ζ M/t³ with the material's resultants (Q constant through the thickness)."""
+    def surface(self, x, phi, surface: str, values: dict | None = None) -> SurfaceState:
+        """Strains, stresses, von Mises and principal stresses on ``surface`` (bottom, middle, top) at (x, φ)."""
         x, phi = np.atleast_1d(np.asarray(x, float)), np.atleast_1d(np.asarray(phi, float))
-        r = self.resultants(x, phi)
-        t = self.shell.t(x, phi)
-        return {
-            f"sigma{ij}": r[f"N{ij}"] / t + 12.0 * np.asarray(zeta) * r[f"M{ij}"] / t**3 for ij in ("11", "22", "12")
-        }
+        e = self.strains(x, phi, values)
+        zeta = SURFACES[surface] * self.shell.t(x, phi)
+        strain = e[:3] + zeta * np.stack([e[3], e[4], 2.0 * e[5]])
+        return SurfaceState(strain, np.einsum("ij,j...->i...", self.shell.material.plane_stress, strain))
 
     # -- global quantities ----------------------------------------------------------------------
     @property
@@ -103,12 +141,43 @@ class ShellSolution:
         return space.interpolate(lambda x, s: self.evaluate(x, s / a))
 
     def probe(self, x: float, phi: float) -> dict:
-        d = self.evaluate([x], [phi], ("u", "v", "w"))
-        return {
+        """Displacement, and strain and stress on each surface, at (x, φ) (local frame: 1 = x, 2 = circumference)."""
+        d = self.evaluate([x], [phi])
+        out = {
             "x": float(x),
             "phi": float(np.degrees(phi)),
             "u": float(d["u"][0]),
             "v": float(d["v"][0]),
             "w": float(d["w"][0]),
-            "displacement": [float(c) for c in self.displacement([x], [phi])[:, 0]],
+            "displacement": [float(c) for c in self.displacement([x], [phi], values=d)[:, 0]],
+            "stress": {},
+            "strain": {},
         }
+        for name in SURFACES:
+            st = self.surface([x], [phi], name, d)
+            s11, s22, s12 = (float(c) for c in st.stress[:, 0])
+            e11, e22, g12 = (float(c) for c in st.strain[:, 0])
+            out["stress"][name] = {"s11": s11, "s22": s22, "s12": s12, "von_mises": float(st.von_mises[0])}
+            out["strain"][name] = {"e11": e11, "e22": e22, "g12": g12}
+        return out
+
+    def stress_extremes(self, yield_stress: float | None = None) -> dict[str, dict]:
+        """Per surface, over the mesh vertices: the largest von Mises stress and where (x, φ in degrees),
+        the largest and smallest principal stress, and the utilisation σ_v / yield_stress if given."""
+        x, s = self.space.mesh.p
+        phi = s / self.shell.radius
+        d = self.evaluate(x, phi)
+        out = {}
+        for name in SURFACES:
+            st = self.surface(x, phi, name, d)
+            vm, (p1, p2) = st.von_mises, st.principal
+            k = int(np.argmax(vm))
+            out[name] = {
+                "von_mises_max": float(vm[k]),
+                "at": {"x": float(x[k]), "phi": float(np.degrees(phi[k]))},
+                "max_principal": float(np.max(p1)),
+                "min_principal": float(np.min(p2)),
+            }
+            if yield_stress is not None:
+                out[name]["utilisation_max"] = float(vm[k] / yield_stress)
+        return out
