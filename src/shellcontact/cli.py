@@ -133,6 +133,18 @@ def _print_summary(con: Console, s: dict) -> None:
         con.print("KKT residuals: " + "  ".join(f"{k} {v:.3e}" for k, v in kkt.items() if isinstance(v, float)))
 
 
+def warn(con: Console, warnings: list[str]) -> int:
+    """Every warning on stderr as ``warning: …`` (also with --quiet); returns how many."""
+    con.clear()
+    for w in warnings:
+        print(f"warning: {w}", file=sys.stderr, flush=True)
+    return len(warnings)
+
+
+def _closing(n_warnings: int) -> str:
+    return f" ({n_warnings} warning{'s' * (n_warnings != 1)}, see above)" if n_warnings else ""
+
+
 # -- commands ----------------------------------------------------------------------------------------------
 def cmd_run(args: argparse.Namespace, con: Console) -> int:
     from .analysis import solve
@@ -154,6 +166,7 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     con.clear()
     log.info("solved in %.3f s", time.perf_counter() - t0)
     summary = result.summary()
+    n_warnings = warn(con, summary["warnings"])
     summary["case_file"] = str(args.case)
     if sets:
         summary["overrides"] = sets
@@ -168,7 +181,7 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
         profile_phi=args.profile_phi,
     )
     _print_summary(con, summary)
-    con.print(f"wrote {out}/: {', '.join(written)}")
+    con.print(f"wrote {out}/: {', '.join(written)}" + _closing(n_warnings))
     return EXIT_OK
 
 

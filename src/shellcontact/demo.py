@@ -9,6 +9,7 @@ comparison table ``DIR/comparison.json`` and ``DIR/comparison.md``.
 
 from __future__ import annotations
 
+import sys
 import time
 from importlib import resources
 from pathlib import Path
@@ -79,7 +80,7 @@ def run_demo(output_dir: str | Path = "demo-out", quiet: bool = False) -> int:
     case = load_case(demo_case_path())
     say(f"shellcontact demo: clamped panel (a = {case.shell.radius} m, t = {case.shell.thickness} m) "
         f"pressed by a spherical punch, case {demo_case_path().name}")
-    rows, results = [], {}
+    rows, results, warnings = [], {}, 0
     for method in PAPER_METHODS:
         t0 = time.perf_counter()
         result = solve(case, method=method)
@@ -87,6 +88,9 @@ def run_demo(output_dir: str | Path = "demo-out", quiet: bool = False) -> int:
         results[method] = result
         rows.append(_row(method, result, seconds))
         say(f"  {method:<10} solved in {seconds:.2f} s ({result.summary()['iterations']} iterations)")
+        for w in result.warnings():  # on stderr as they arise, also with --quiet
+            print(f"warning: {method}: {w}", file=sys.stderr, flush=True)
+            warnings += 1
     for method, result in results.items():
         write_outputs(result, out / method, figures=(method == "active-set"), report=(method == "active-set"))
     exact = results["active-set"].solution.U
@@ -108,5 +112,6 @@ def run_demo(output_dir: str | Path = "demo-out", quiet: bool = False) -> int:
     say(f"\n||U_primal - U_dual||/||U|| = {agreement['primal_vs_dual']:.2e}; "
         f"penalty (eps = {rows[0]['penalty']:.3g} m/Pa) differs by {agreement['primal_vs_penalty']:.2e}")
     say(f"wrote {out}/ (comparison.md, and per method: summary.json, fields.vtu, results.npz; "
-        f"figures and report.html for active-set)")
+        f"figures and report.html for active-set)"
+        + (f"; {warnings} warning{'s' * (warnings != 1)} above" if warnings else ""))
     return 0

@@ -1,8 +1,9 @@
 """``report.html``: one self-contained page per run (figures embedded as base64 PNG).
 
-Sections: inputs (every case-file key, with ``--set`` overrides marked), key results, probes,
-contact per punch, KKT residuals, solver, timings, versions, and the full summary.json.
-Numbers are printed with 6 significant digits (``{:.6g}``), the JSON verbatim.
+Sections: the warnings first (in a box, each with what to do about it), inputs (every case-file key,
+with ``--set`` overrides marked), key results, probes, contact per punch, KKT residuals, solver,
+timings, versions, and the full summary.json. Numbers are printed with 6 significant digits
+(``{:.6g}``), the JSON verbatim.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ td.num { text-align: right; font-family: ui-monospace, monospace; }
 th { background: #f3f3f3; } .set { color: #a40; font-weight: bold; }
 figure { display: inline-block; margin: 0.5em; } img { max-width: 100%; border: 1px solid #ddd; }
 pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; }
+.warnings { border: 2px solid #c60; background: #fff4e5; padding: 0.4em 1em; margin: 1em 0; }
+.warnings li { margin: 0.3em 0; }
 """
 
 PACKAGES = ("shellcontact", "numpy", "scipy", "scikit-fem", "meshio", "matplotlib", "pypardiso")
@@ -103,6 +106,15 @@ def page(title: str, sections: Iterable[tuple[str, str]]) -> str:
     )
 
 
+def _warnings(s: Mapping[str, Any]) -> str:
+    """A box listing every warning of the run (each says what it means and what to do), or nothing."""
+    items = s.get("warnings") or []
+    if not items:
+        return ""
+    li = "\n".join(f"<li>{html.escape(str(w))}</li>" for w in items)
+    return f'<div class="warnings"><strong>{len(items)} warning{"s" * (len(items) != 1)}</strong><ul>{li}</ul></div>'
+
+
 def _key_results(s: Mapping[str, Any]) -> str:
     keys = ("dofs", "unknowns", "elements", "vertices", "energy", "max_abs_w", "reaction_resultant", "backend")
     rows = [(k, s[k]) for k in keys if k in s]
@@ -155,6 +167,7 @@ def render(
     ]
     solver = summary.get("solver")
     sections = [
+        ("Warnings", _warnings(summary)),
         (
             "Run",
             table(
