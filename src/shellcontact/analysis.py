@@ -39,7 +39,7 @@ from .solvers.methods import METHODS
 from .solvers.screening import factorize_screened, solve_screened
 from .solvers.substructure import MIN_UNKNOWNS
 from .spaces import ShellSpace
-from .supports import Reduction
+from .supports import Reduction, edge_constrained_dofs
 
 KKT_KEYS = ("stationarity", "penetration", "dual_feasibility", "complementarity", "duality_gap")
 
@@ -202,6 +202,51 @@ class Result:
                     "indentation, or use a plastic analysis)")
         return out
 
+    def edge_reactions(self) -> dict[str, dict[str, list[float]]]:
+        """Per supported edge: the force and moment the support exerts on the shell (global frame), the moment
+        about the edge's centre (x-edge: the ring centre (x, 0, 0); φ-edge: the generator's midpoint).
+        A dof constrained by two edges (a corner) counts with the first of x_min, x_max, phi_min, phi_max."""
+        sol, sh = self.solution, self.case.shell
+        R = sol.reactions()
+        seen = np.zeros(R.size, bool)
+        out = {}
+        for edge, dofs in edge_constrained_dofs(sol.space, self.case.supports).items():
+            dofs = dofs[~seen[dofs]]
+            seen[dofs] = True
+            part = np.zeros_like(R)
+            part[dofs] = R[dofs]
+            force, moment = sol.resultant(part)
+            if edge.startswith("x"):
+                centre = np.array([sh.x_min if edge == "x_min" else sh.x_max, 0.0, 0.0])
+            else:
+                centre = sh.point(0.5 * (sh.x_min + sh.x_max), sh.alpha if edge == "phi_min" else sh.beta)
+            out[edge] = {"force": [float(c) for c in force],
+                         "moment": [float(c) for c in moment - np.cross(centre, force)],
+                         "about": [float(c) for c in centre]}
+        return out
+
+    def equilibrium(self) -> dict[str, Any]:
+        """Global balance of the shell: applied loads + contact forces + support reactions = residual, as forces
+        and moments about the origin (generalised forces on the interpolated rigid motions). The residual is
+        U·A·I_h(r), r a rigid motion: zero up to round-off for the motions the space represents exactly (the
+        translation along x) and of the order of the interpolation error of the others; it falls under refinement.
+        ``relative_residual``: the largest |residual| relative to the gross size Σ |f_d r_d| of its balance."""
+        sol = self.solution
+        parts = {"applied": sol.F, "reactions": sol.reactions()}
+        if sol.extra_forces is not None:
+            parts["contact"] = sol.extra_forces
+        out: dict[str, Any] = {}
+        total = np.zeros(6)
+        gross = np.zeros(6)  # Σ |f_d r_d| per rigid motion: the size of each balance without cancellation
+        for name, vec in parts.items():
+            f, m = sol.resultant(vec)
+            out[name] = {"force": [float(c) for c in f], "moment": [float(c) for c in m]}
+            total += np.concatenate([f, m])
+            gross += np.abs(sol.rigid_modes) @ np.abs(vec)
+        out["residual"] = {"force": [float(c) for c in total[:3]], "moment": [float(c) for c in total[3:]]}
+        out["relative_residual"] = float(np.max(np.abs(total) / np.maximum(gross, 1e-300)))
+        return out
+
     def summary(self) -> dict[str, Any]:
         sol = self.solution
         out: dict[str, Any] = {
@@ -214,6 +259,8 @@ class Result:
             "probes": [sol.probe(x, phi) for x, phi in self.case.probes],
             "stresses": self.stresses,
             "reaction_resultant": [float(c) for c in sol.reaction_resultant()],
+            "reactions": self.edge_reactions(),
+            "equilibrium": self.equilibrium(),
         }
         if self.contact is not None:
             cs = self.contact.solution

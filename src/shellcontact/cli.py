@@ -115,6 +115,10 @@ def _default_dir(case_path: str, suffix: str) -> Path:
     return Path(f"{Path(case_path).stem}{suffix}")
 
 
+def _vec(v) -> str:
+    return "[" + ", ".join(f"{c:.4g}" for c in v) + "]"
+
+
 def _print_summary(con: Console, s: dict) -> None:
     con.print(f"dofs {s['dofs']}  elements {s['elements']}  energy {s['energy']:.6g}  max|w| {s['max_abs_w']:.6g}")
     for p in s.get("probes", []):
@@ -124,10 +128,15 @@ def _print_summary(con: Console, s: dict) -> None:
         for i, c in enumerate(contact if isinstance(contact, list) else [contact]):
             parts = [
                 f"{k} {c[k]:.6g}"
-                for k in ("force_magnitude", "area", "peak_pressure")
+                for k in ("force_magnitude", "total_normal_force", "area", "peak_pressure")
                 if isinstance(c.get(k), (int, float))
             ]
             con.print(f"punch {i}: " + "  ".join(parts))
+    eq = s.get("equilibrium")
+    if eq:
+        terms = "  ".join(f"{k} {_vec(eq[k]['force'])}" for k in ("applied", "contact", "reactions") if k in eq)
+        con.print(f"equilibrium (forces): {terms}  residual {_vec(eq['residual']['force'])} "
+                  f"(relative {eq['relative_residual']:.1e})")
     kkt = s.get("kkt")
     if isinstance(kkt, dict) and kkt:
         con.print("KKT residuals: " + "  ".join(f"{k} {v:.3e}" for k, v in kkt.items() if isinstance(v, float)))

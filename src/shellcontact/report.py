@@ -124,6 +124,26 @@ def _key_results(s: Mapping[str, Any]) -> str:
     return table(rows, ("quantity", "value"))
 
 
+def _stresses(s: Mapping[str, Any]) -> str:
+    st = s.get("stresses") or {}
+    if not st:
+        return ""
+    util = any("utilisation_max" in v for v in st.values())
+    rows = [[name, v["von_mises_max"], v["at"]["x"], v["at"]["phi"], v["max_principal"], v["min_principal"],
+             *([v["utilisation_max"]] if util else [])] for name, v in st.items()]
+    return table(rows, ["surface", "max von Mises", "at x", "at φ (deg)", "max principal", "min principal",
+                        *(["utilisation"] if util else [])])
+
+
+def _equilibrium(s: Mapping[str, Any]) -> str:
+    eq = s.get("equilibrium")
+    if not eq:
+        return ""
+    rows = [[k, eq[k]["force"], eq[k]["moment"]] for k in ("applied", "contact", "reactions", "residual") if k in eq]
+    return table(rows, ("", "force [Fx, Fy, Fz]", "moment about the origin [Mx, My, Mz]")) + (
+        f"<p>relative residual {eq['relative_residual']:.2e} (of the gross size of each balance)</p>")
+
+
 def _probes(s: Mapping[str, Any]) -> str:
     pr = s.get("probes") or []
     if not pr:
@@ -179,6 +199,8 @@ def render(
         ),
         ("Inputs", table(input_rows, ("key", "value")) if input_rows else ""),
         ("Key results", _key_results(summary)),
+        ("Stresses", _stresses(summary)),
+        ("Equilibrium", _equilibrium(summary)),
         ("Probes", _probes(summary)),
         ("Contact", _contact(summary)),
         ("KKT residuals", _mapping(summary, "kkt")),

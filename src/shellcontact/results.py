@@ -13,6 +13,7 @@ tan 2θ = 2σ12/(σ11 − σ22). Components are in the shell's local frame (e1 =
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -122,12 +123,23 @@ class ShellSolution:
             R -= self.extra_forces
         return R
 
+    @functools.cached_property
+    def rigid_modes(self) -> np.ndarray:
+        """(6, ndofs): the interpolated rigid translations along x, y, z and rotations about x, y, z (origin)."""
+        e = np.eye(3)
+        modes = [rigid_motion(self.shell, e[k], np.zeros(3)) for k in range(3)]
+        modes += [rigid_motion(self.shell, np.zeros(3), e[k]) for k in range(3)]
+        return np.array([self.space.interpolate(m) for m in modes])
+
+    def resultant(self, forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Global force and moment about the origin of generalised nodal forces: their work on the rigid
+        translations and rotations (force_k = f · I_h(e_k), moment_k = f · I_h(e_k × X))."""
+        w = self.rigid_modes @ np.asarray(forces, float)
+        return w[:3], w[3:]
+
     def reaction_resultant(self) -> np.ndarray:
         """Global force that the supports exert on the shell: R · I_h(e_k) for k = x, y, z."""
-        R = self.reactions()
-        return np.array(
-            [R @ self.space.interpolate(rigid_motion(self.shell, np.eye(3)[k], np.zeros(3))) for k in range(3)]
-        )
+        return self.resultant(self.reactions())[0]
 
     def deformed_vertices(self, scale: float = 1.0) -> np.ndarray:
         """3D coordinates (3, nv) of the deformed middle surface at the mesh vertices."""

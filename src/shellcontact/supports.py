@@ -58,16 +58,17 @@ class Supports:
         return self.phi_min == "periodic"
 
 
-def constrained_dofs(space: ShellSpace, supports: Supports) -> np.ndarray:
-    """Dofs fixed to zero by the edge conditions."""
+def edge_constrained_dofs(space: ShellSpace, supports: Supports) -> dict[str, np.ndarray]:
+    """Dofs fixed to zero by each edge's condition (edges with "free" or "periodic" are left out)."""
     m = space.mesh
-    fixed = []
+    out = {}
     for edge in EDGES:
         kind = getattr(supports, edge)
-        if kind == "periodic":
+        if kind in ("periodic", "free"):
             continue
         fields, kinds, normal = _RULES[("x" if edge.startswith("x") else "s", kind)]
         verts, facets = m.edge_vertices(edge), m.edge_facets(edge)
+        fixed = []
         if "u" in fields:
             fixed.append(space.u_dofs(verts, facets))
         if "v" in fields:
@@ -76,6 +77,13 @@ def constrained_dofs(space: ShellSpace, supports: Supports) -> np.ndarray:
             fixed.append(space.w_vertex_dofs(verts, kinds))
         if normal:
             fixed.append(space.w_facet_dofs(facets))
+        out[edge] = np.unique(np.concatenate(fixed)) if fixed else np.empty(0, dtype=int)
+    return out
+
+
+def constrained_dofs(space: ShellSpace, supports: Supports) -> np.ndarray:
+    """Dofs fixed to zero by the edge conditions."""
+    fixed = list(edge_constrained_dofs(space, supports).values())
     return np.unique(np.concatenate(fixed)) if fixed else np.empty(0, dtype=int)
 
 
