@@ -102,6 +102,26 @@ def test_every_step_is_validated_before_the_first_solve(tmp_path: Path) -> None:
     assert not (tmp_path / "sw").exists()  # not one step was solved or recorded
 
 
+def test_failed_parallel_step_is_exit_3_with_residuals(tmp_path: Path) -> None:
+    """A step that fails in a worker process stops the sweep with the step's own error (here exit 3)."""
+    r = subprocess.run(
+        [sys.executable, "-m", "shellcontact.cli", "sweep", PANEL, "--set", "mesh.nx=8", "--set", "mesh.nphi=8",
+         "--set", "solver.max_iterations=1", "--param", "punch.0.indentation", "--values", "4e-3,5e-3",
+         "--jobs", "2", "-o", "sw"], cwd=tmp_path, env={**os.environ, "OMP_NUM_THREADS": "1"},
+        capture_output=True, text=True)
+    assert r.returncode == 3 and "solver failed" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not (tmp_path / "sw" / "sweep.csv").exists()
+
+
+def test_input_error_survives_a_worker_process() -> None:
+    import pickle
+
+    from shellcontact.errors import InputError
+
+    err = pickle.loads(pickle.dumps(InputError("loads.normal", "must be finite")))
+    assert isinstance(err, InputError) and (err.field, err.message) == ("loads.normal", "must be finite")
+
+
 def test_resumed_contact_sweep_csv_is_byte_identical(tmp_path: Path) -> None:
     """Interrupt a contact sweep after 2 of 4 steps, resume it: the CSV of an uninterrupted sweep, byte for byte."""
     case = sc.load_case(PANEL, ["mesh.nx=6", "mesh.nphi=6"])
