@@ -365,7 +365,8 @@ def _install_handlers() -> dict[int, object]:
         return {}
     old = {}
     for sig in (signal.SIGTERM, signal.SIGHUP):
-        old[sig] = signal.signal(sig, _terminate)
+        if signal.getsignal(sig) is not signal.SIG_IGN:  # e.g. nohup: an ignored signal stays ignored
+            old[sig] = signal.signal(sig, _terminate)
     return old
 
 

@@ -319,7 +319,7 @@ def sweep(
     refused unless ``overwrite``; then the new sweep is staged beside it and replaces it only when
     complete (the previous result is kept until then; an interrupted ``overwrite`` sweep starts over).
     """
-    from .transaction import DirectoryLock, Staging, remove_stale
+    from .transaction import DirectoryLock, Staging, name_in_target, remove_stale
 
     split_path(param)
     if not values:
@@ -345,7 +345,7 @@ def sweep(
         # a fresh or resumed sweep records its steps in place (resumable); one replacing another
         # result works beside it and keeps that result until the new one is complete
         in_place = resume or not target.exists() or not any(target.iterdir())
-        created = not target.exists()
+        created, fresh = not target.exists(), in_place and not resume
         stage = None if in_place else Staging(target)
         work = target if stage is None else stage.path
         try:
@@ -357,11 +357,17 @@ def sweep(
                 stage = Staging(target)  # the final files appear together beside the step records
             names = _write_sweep_files(res, stage.path, param, figures, source, case.raw)
             stage.commit(SWEEP_FINAL if in_place else SWEEP_ENTRIES)
-        except BaseException:
+        except BaseException as exc:
             if stage is not None:
                 stage.discard()
-            if created and not any((target / "steps").glob("step-*.json")):
-                shutil.rmtree(target, ignore_errors=True)  # nothing worth resuming: leave nothing
+                if isinstance(exc, OSError):
+                    name_in_target(exc, stage.path, target)
+            if fresh and not any((target / "steps").glob("step-*.json")):  # nothing worth resuming: leave nothing
+                if created:
+                    shutil.rmtree(target, ignore_errors=True)
+                else:
+                    shutil.rmtree(target / "steps", ignore_errors=True)
+                    (target / "sweep.json").unlink(missing_ok=True)
             raise
     res.files = {name: target / name for name in names}
     return res

@@ -100,7 +100,7 @@ def remove_stale(target: str | Path) -> None:
     A previous result left aside by a run cut between its two renames is put back first.
     """
     target = resolve_target(target)
-    for entry in sorted(target.parent.glob(f".{glob_escape(target.name)}.*-*-*")):
+    for entry in sorted(target.parent.glob(f".{_glob_escape(target.name)}.*-*-*")):
         m = _STAGING.match(entry.name)
         if m is None or m["name"] != target.name or _pid_alive(int(m["pid"])):
             continue
@@ -110,7 +110,7 @@ def remove_stale(target: str | Path) -> None:
             shutil.rmtree(entry, ignore_errors=True)
 
 
-def glob_escape(name: str) -> str:
+def _glob_escape(name: str) -> str:
     return re.sub(r"([*?\[])", r"[\1]", name)
 
 
@@ -221,7 +221,7 @@ def replace_dir(target: str | Path, *, overwrite: bool, owned: Collection[str], 
         except OSError as exc:
             if stage is not None:
                 stage.discard()
-                _rename_file(exc, stage.path, target)
+                name_in_target(exc, stage.path, target)
             raise
         except BaseException:
             if stage is not None:
@@ -229,7 +229,7 @@ def replace_dir(target: str | Path, *, overwrite: bool, owned: Collection[str], 
             raise
 
 
-def _rename_file(exc: OSError, staged: Path, target: str | Path) -> None:
+def name_in_target(exc: OSError, staged: Path, target: str | Path) -> None:
     """Name the file by its place in the target (``DIR/fields.vtu``), not in the staging directory."""
     name = str(exc.filename) if exc.filename is not None else ""
     if name.startswith(str(staged)):
