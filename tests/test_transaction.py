@@ -281,3 +281,28 @@ def test_convergence_is_a_transaction(tmp_path: Path, monkeypatch) -> None:
     with pytest.raises(KeyboardInterrupt):
         convergence(case, 2, tmp_path / "cv", overwrite=True, figures=False)
     assert snapshot(tmp_path / "cv") == before and leftovers(tmp_path) == []
+
+
+def test_replace_without_atomic_exchange_and_in_the_working_directory(tmp_path: Path, monkeypatch) -> None:
+    """Where directories cannot be swapped in one step (no renameat2), and where the target is the working
+    directory (which must stay where it is), --force still replaces the run files and keeps the user's."""
+    import shellcontact as sc
+    from shellcontact import transaction
+
+    thin = sc.solve(sc.load_case(ROOF, ["mesh.nx=4", "mesh.nphi=4"]))
+    thick = sc.solve(sc.load_case(ROOF, ["mesh.nx=4", "mesh.nphi=4", "shell.thickness=0.3"]))
+    for where in ("aside", "cwd"):
+        out = tmp_path / where
+        thin.write(out, figures=False)
+        (out / "notes.txt").write_text("mine")
+        (out / "pressure.png").write_bytes(b"an older run's")
+        if where == "aside":
+            monkeypatch.setattr(transaction, "_exchange", lambda a, b: False)
+            thick.write(out, overwrite=True, figures=False)
+        else:
+            monkeypatch.chdir(out)
+            thick.write(".", overwrite=True, figures=False)
+        files = snapshot(out)
+        assert sorted(files) == ["fields.vtu", "notes.txt", "report.html", "results.npz", "summary.json"]
+        assert json.loads(files["summary.json"])["energy"] == thick.summary()["energy"]
+        assert leftovers(tmp_path) == [] and leftovers(out) == []
