@@ -206,11 +206,8 @@ def test_contact_sweep_force_indentation(tmp_path: Path) -> None:
     (tmp_path / "fi" / "steps" / "step-0002.json").unlink()
     r = cli(*args, cwd=tmp_path)
     assert "resumed: 2 of 3" in r.stdout
-    resumed = [dict(zip(header, ln.split(","))) for ln in _csv(tmp_path / "fi" / "sweep.csv").splitlines()[1:]]
-    # the last step is solved again, now without a warm start: the same solution up to the solver tolerance
-    for a, b in zip(rows, resumed):
-        for k in ("energy", "force", "area", "peak_pressure"):
-            assert float(b[k]) == pytest.approx(float(a[k]), rel=1e-8), k
+    # every step starts from its own case alone: the step solved again gives the same CSV, byte for byte
+    assert _csv(tmp_path / "fi" / "sweep.csv") == text
 
 
 def test_demo(tmp_path: Path) -> None:

@@ -1,4 +1,4 @@
-"""The output modules import one way: fields and files → writers, plots, report → outputs.
+"""The output modules import one way: fields and files → transaction, writers, plots, report → outputs.
 
 Every import inside the package is read from the source (top-level and lazy ones in functions),
 so a circle or an upward import (a figure solving, a writer importing the CLI) fails here.
@@ -21,7 +21,8 @@ ALLOWED = {
     "writers": {"fields", "files"},
     "plots": {"fields", "files"},
     "report": {"files"},
-    "outputs": {"fields", "files", "writers", "plots", "report"},
+    "transaction": {"errors", "files"},
+    "outputs": {"fields", "files", "transaction", "writers", "plots", "report"},
 }
 
 #: the only modules that write a run directory

@@ -131,11 +131,14 @@ class Result:
     discretization: Discretization | None = None  # the reduced operators (e.g. ``.qp()``)
 
     # -- outputs (thin wrappers over outputs, writers, fields, plots and report) ---------------------------------
-    def write(self, directory, **kw) -> dict:
-        """Write the run directory (summary.json, fields.vtu, results.npz, figures, report.html)."""
+    def write(self, directory, *, overwrite: bool = False, **kw) -> dict:
+        """Write the run directory (summary.json, fields.vtu, results.npz, figures, report.html).
+
+        It appears whole or not at all; a non-empty ``directory`` is refused unless ``overwrite``.
+        """
         from .outputs import write_outputs
 
-        return write_outputs(self, directory, **kw)
+        return write_outputs(self, directory, overwrite=overwrite, **kw)
 
     def to_vtu(self, path):
         """The 3D shell surface with all vertex fields, for ParaView (via meshio)."""

@@ -18,7 +18,9 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -111,8 +113,11 @@ def _load(args: argparse.Namespace):
     return case, sets
 
 
-def _default_dir(case_path: str, suffix: str) -> Path:
-    return Path(f"{Path(case_path).stem}{suffix}")
+def _output(args: argparse.Namespace, suffix: str) -> Path:
+    """-o DIR, or <case name><suffix> beside the working directory."""
+    if args.output is None:
+        return Path(f"{Path(args.case).stem}{suffix}")
+    return Path(args.output)
 
 
 def _vec(v) -> str:
@@ -157,38 +162,38 @@ def _closing(n_warnings: int) -> str:
 # -- commands ----------------------------------------------------------------------------------------------
 def cmd_run(args: argparse.Namespace, con: Console) -> int:
     from .analysis import solve
-    from .files import check_output_dir
-    from .outputs import clear_run_files, write_outputs
+    from .outputs import RUN_FILES, write_run_files
+    from .transaction import replace_dir
 
     case, sets = _load(args)
-    out = Path(args.output) if args.output else _default_dir(args.case, "-out")
-    check_output_dir(out, args.force)
-    if args.force and out.is_dir():
-        clear_run_files(out)
+    out = _output(args, "-out")
+
     def show(iteration: int, residuals: dict | None = None) -> None:  # once per contact-solver iteration
         worst = max((v for v in (residuals or {}).values() if isinstance(v, float)), default=None)
         con.status(f"solving: iteration {iteration}" + (f", largest residual {worst:.2e}" if worst else ""))
 
-    t0 = time.perf_counter()
-    con.status("solving ...")
-    result = solve(case, progress=show if con.bar else None)
-    con.clear()
-    log.info("solved in %.3f s", time.perf_counter() - t0)
-    summary = result.summary()
-    n_warnings = warn(con, summary["warnings"])
-    summary["case_file"] = str(args.case)
-    if sets:
-        summary["overrides"] = sets
-    written = write_outputs(
-        result,
-        out,
-        summary,
-        figures=not args.no_figures,
-        report=not args.no_report,
-        log=log.info,
-        profile_x=args.profile_x,
-        profile_phi=args.profile_phi,
-    )
+    with replace_dir(out, overwrite=args.force, owned=RUN_FILES, wait=args.wait) as stage:
+        t0 = time.perf_counter()
+        con.status("solving ...")
+        result = solve(case, progress=show if con.bar else None)
+        con.clear()
+        log.info("solved in %.3f s", time.perf_counter() - t0)
+        summary = result.summary()
+        n_warnings = warn(con, summary["warnings"])
+        summary["case_file"] = str(args.case)
+        if sets:
+            summary["overrides"] = sets
+        written = write_run_files(
+            result,
+            stage,
+            summary,
+            figures=not args.no_figures,
+            report=not args.no_report,
+            profile_x=args.profile_x,
+            profile_phi=args.profile_phi,
+        )
+    for name in written:
+        log.info("wrote %s", out / name)
     _print_summary(con, summary)
     con.print(f"wrote {out}/: {', '.join(written)}" + _closing(n_warnings))
     return EXIT_OK
@@ -196,11 +201,8 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
 
 def cmd_demo(args: argparse.Namespace, con: Console) -> int:
     from .demo import run_demo
-    from .files import check_output_dir
 
-    out = Path(args.output)
-    check_output_dir(out, args.force)
-    return run_demo(out, args.quiet)
+    return run_demo(_output(args, ""), args.quiet, overwrite=args.force, wait=args.wait)
 
 
 def cmd_verify(args: argparse.Namespace, con: Console) -> int:
@@ -210,19 +212,15 @@ def cmd_verify(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
-    from .files import check_output_dir
-    from .studies import clear_sweep_dir, parse_values, sweep
+    from .studies import parse_values, sweep
 
     values = parse_values(args.values)
     if args.jobs < 1:
         raise InputError("--jobs", f"must be >= 1, got {args.jobs}")
     case, _ = _load(args)
-    out = Path(args.output) if args.output else _default_dir(args.case, "-sweep")
-    if args.force:
-        clear_sweep_dir(out)
-    elif not (out / "sweep.json").is_file():
-        check_output_dir(out, False)  # a non-empty directory that is not a sweep: refuse
-    res = sweep(case, args.param, values, out, jobs=args.jobs, progress=con.progress, figures=not args.no_figures)
+    out = _output(args, "-sweep")
+    res = sweep(case, args.param, values, out, overwrite=args.force, wait=args.wait, jobs=args.jobs,
+                progress=con.progress, figures=not args.no_figures)
     if res.reused:
         con.print(f"resumed: {res.reused} of {len(values)} steps were already done")
     con.print(res.csv().rstrip())
@@ -231,13 +229,12 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_convergence(args: argparse.Namespace, con: Console) -> int:
-    from .files import check_output_dir
     from .studies import convergence, convergence_table
 
     case, _ = _load(args)
-    out = Path(args.output) if args.output else _default_dir(args.case, "-convergence")
-    check_output_dir(out, args.force)
-    res = convergence(case, args.levels, out, progress=con.progress, figures=not args.no_figures)
+    out = _output(args, "-convergence")
+    res = convergence(case, args.levels, out, overwrite=args.force, wait=args.wait, progress=con.progress,
+                      figures=not args.no_figures)
     con.print(convergence_table(res))
     con.print(f"wrote {out}/: {', '.join(res.files)}")
     return EXIT_OK
@@ -270,6 +267,18 @@ def _common(p: argparse.ArgumentParser) -> None:
     g.add_argument("--log", metavar="FILE", help="also write a detailed log to FILE")
 
 
+def _output_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the files a previous run wrote in a non-empty output directory (kept until the new "
+        "result is complete; other files are kept)",
+    )
+    p.add_argument(
+        "--wait", action="store_true", help="wait for another run writing the same directory instead of refusing"
+    )
+
+
 def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
     p.add_argument("case", help="TOML case file (keys: docs/case-file.md)")
     p.add_argument("-o", "--output", metavar="DIR", help=out_help)
@@ -281,7 +290,7 @@ def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
         help="override a case-file key by dotted path, VALUE a TOML literal "
         "(e.g. --set mesh.refine=2 --set punch.0.indentation=2e-3); repeatable",
     )
-    p.add_argument("--force", action="store_true", help="overwrite an existing non-empty output directory")
+    _output_args(p)
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
 
 
@@ -312,7 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
         "penalty, active-set and dual methods; prints a table and writes DIR.",
     )
     d.add_argument("-o", "--output", metavar="DIR", default="demo-out", help="output directory (default: demo-out)")
-    d.add_argument("--force", action="store_true", help="overwrite an existing non-empty output directory")
+    _output_args(d)
     _common(d)
     d.set_defaults(func=cmd_demo)
 
@@ -360,9 +369,33 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class Terminated(BaseException):
+    """SIGTERM or SIGHUP, raised in the main thread so that a run cleans up as after Ctrl-C."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _terminate(signum: int, frame) -> None:
+    raise Terminated(signum)
+
+
+def _install_handlers() -> dict[int, object]:
+    """SIGTERM/SIGHUP raise Terminated (SIGINT already raises KeyboardInterrupt); returns the old handlers."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    old = {}
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(sig) is not signal.SIG_IGN:  # e.g. nohup: an ignored signal stays ignored
+            old[sig] = signal.signal(sig, _terminate)
+    return old
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     con = Console(quiet=args.quiet)
+    handlers = _install_handlers()
     try:
         setup_logging(args.verbose, args.quiet, args.log)
         return args.func(args, con)
@@ -379,11 +412,18 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         con.clear()
         print("interrupted", file=sys.stderr)
-        return 130
+        return 128 + signal.SIGINT
+    except Terminated as exc:
+        con.clear()
+        print(f"terminated by {signal.Signals(exc.signum).name}", file=sys.stderr)
+        return 128 + exc.signum
     except OSError as exc:
         con.clear()
         print(f"error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_INPUT
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
 
 
 if __name__ == "__main__":

@@ -17,11 +17,14 @@ from pathlib import Path
 from .analysis import Result, solve
 from .case import load_case
 from .files import atomic_write_text, write_json
-from .outputs import write_outputs
+from .outputs import write_run_files
+from .transaction import replace_dir
 
 CASE_FILE = "paper_panel.toml"
 #: the paper's three formulations, in its order (registered in solvers.methods)
 PAPER_METHODS = ("penalty", "active-set", "dual")
+#: what the demo writes into its directory (``--force`` replaces exactly these)
+DEMO_ENTRIES = (*PAPER_METHODS, "comparison.json", "comparison.md")
 
 
 def demo_case_path() -> Path:
@@ -73,10 +76,25 @@ def format_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def run_demo(output_dir: str | Path = "demo-out", quiet: bool = False) -> int:
-    """Solve the paper's problem three ways, print the comparison, write the results."""
-    say = (lambda *a: None) if quiet else print
+def run_demo(output_dir: str | Path = "demo-out", quiet: bool = False, *, overwrite: bool = False,
+             wait: bool = False) -> int:
+    """Solve the paper's problem three ways, print the comparison, write the results (one transaction)."""
     out = Path(output_dir)
+    with replace_dir(out, overwrite=overwrite, owned=DEMO_ENTRIES, wait=wait) as stage:
+        table, agreement, eps, warnings = _demo(stage, quiet)
+    if not quiet:
+        print("")
+        print(table)
+        print(f"\n||U_primal - U_dual||/||U|| = {agreement['primal_vs_dual']:.2e}; "
+              f"penalty (eps = {eps:.3g} m/Pa) differs by {agreement['primal_vs_penalty']:.2e}")
+        print(f"wrote {out}/ (comparison.md, and per method: summary.json, fields.vtu, results.npz; "
+              f"figures and report.html for active-set)"
+              + (f"; {warnings} warning{'s' * (warnings != 1)} above" if warnings else ""))
+    return 0
+
+
+def _demo(out: Path, quiet: bool) -> tuple[str, dict[str, float], float, int]:
+    say = (lambda *a: None) if quiet else print
     case = load_case(demo_case_path())
     say(f"shellcontact demo: clamped panel (a = {case.shell.radius} m, t = {case.shell.thickness} m) "
         f"pressed by a spherical punch, case {demo_case_path().name}")
@@ -92,7 +110,8 @@ def run_demo(output_dir: str | Path = "demo-out", quiet: bool = False) -> int:
             print(f"warning: {method}: {w}", file=sys.stderr, flush=True)
             warnings += 1
     for method, result in results.items():
-        write_outputs(result, out / method, figures=(method == "active-set"), report=(method == "active-set"))
+        (out / method).mkdir()
+        write_run_files(result, out / method, figures=(method == "active-set"), report=(method == "active-set"))
     exact = results["active-set"].solution.U
     dual = results["dual"].solution.U
     pen = results["penalty"].solution.U
@@ -107,11 +126,4 @@ def run_demo(output_dir: str | Path = "demo-out", quiet: bool = False) -> int:
                       + f"||U_primal - U_dual||/||U|| = {agreement['primal_vs_dual']:.2e}, "
                       + f"||U_primal - U_penalty||/||U|| = {agreement['primal_vs_penalty']:.2e} "
                       + f"(penalty eps = {rows[0]['penalty']:.3g} m/Pa)\n")
-    say("")
-    say(table)
-    say(f"\n||U_primal - U_dual||/||U|| = {agreement['primal_vs_dual']:.2e}; "
-        f"penalty (eps = {rows[0]['penalty']:.3g} m/Pa) differs by {agreement['primal_vs_penalty']:.2e}")
-    say(f"wrote {out}/ (comparison.md, and per method: summary.json, fields.vtu, results.npz; "
-        f"figures and report.html for active-set)"
-        + (f"; {warnings} warning{'s' * (warnings != 1)} above" if warnings else ""))
-    return 0
+    return table, agreement, rows[0]["penalty"], warnings

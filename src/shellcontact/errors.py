@@ -15,6 +15,9 @@ class InputError(ShellContactError, ValueError):
         self.message = message
         super().__init__(f"{field}: {message}")
 
+    def __reduce__(self):  # a sweep worker's error reaches the parent whole
+        return (type(self), (self.field, self.message))
+
 
 class SolverError(ShellContactError, RuntimeError):
     """A solve did not reach its tolerance; ``residuals`` says how far it got."""

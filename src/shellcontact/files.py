@@ -28,6 +28,11 @@ def _file_mode() -> int:
 _MODE = _file_mode()
 
 
+def _naming(exc: OSError, path: Path) -> OSError:
+    """The same error naming the file being written (a write to a full disk names none, or the temporary)."""
+    return type(exc)(exc.errno, exc.strerror or str(exc), str(path))
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """Write ``data`` to a temporary file beside ``path``, then rename it into place."""
     path = Path(path)
@@ -38,6 +43,9 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
             fh.write(data)
         os.chmod(tmp, _MODE)
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise _naming(exc, path) from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -57,6 +65,9 @@ def atomic_write_with(path: str | Path, writer: Callable[[str], None]) -> None:
         writer(tmp)
         os.chmod(tmp, _MODE)
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise _naming(exc, path) from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -86,5 +97,7 @@ def check_output_dir(path: str | Path, force: bool, option: str = "--output") ->
     if path.exists() and not path.is_dir():
         raise InputError(option, f"{str(path)!r} exists and is not a directory")
     if path.is_dir() and any(path.iterdir()) and not force:
-        raise InputError(option, f"{str(path)!r} exists and is not empty; use --force to overwrite")
+        raise InputError(
+            option, f"{str(path)!r} exists and is not empty; use --force (Python: overwrite=True) to replace it"
+        )
     return path

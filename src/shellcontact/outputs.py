@@ -1,7 +1,9 @@
 """The run directory: summary.json, fields.vtu, results.npz, PNG figures and report.html.
 
-``write_outputs(result, directory, ...)`` writes it; ``RUN_FILES`` names every file it may contain,
-and ``clear_run_files`` removes exactly those (``--force``).
+``write_outputs(result, directory, ...)`` writes it as one transaction (transaction.replace_dir: the
+directory appears whole or not at all, and ``overwrite=True`` replaces exactly the files named in
+``RUN_FILES``); ``write_run_files`` writes the files into a directory that already exists (a
+staging directory).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from .files import atomic_write_bytes, write_json
 from .report import write_report
 from .writers import write_npz, write_vtu
 
-#: files a run directory may contain; ``--force`` removes exactly these before writing
+#: files a run directory may contain; ``--force`` replaces exactly these (other files are kept)
 RUN_FILES = (
     "summary.json",
     "fields.vtu",
@@ -29,17 +31,12 @@ RUN_FILES = (
 )
 
 
-def clear_run_files(path: str | Path) -> None:
-    """Remove the files a previous run wrote (only those named in RUN_FILES)."""
-    for name in RUN_FILES:
-        (Path(path) / name).unlink(missing_ok=True)
-
-
 def write_outputs(
     result,
     directory: str | Path,
     summary: dict[str, Any] | None = None,
     *,
+    overwrite: bool = False,
     figures: bool = True,
     report: bool = True,
     log: Callable[[str], None] | None = None,
@@ -48,13 +45,36 @@ def write_outputs(
 ) -> dict[str, Path]:
     """Write the run directory: summary.json, fields.vtu, results.npz, PNG figures, report.html.
 
+    A non-empty ``directory`` is refused (InputError) unless ``overwrite``; the files are written
+    into a staging directory that replaces ``directory`` only when all are complete.
     ``profile_x``/``profile_phi`` (degrees) choose the pressure-profile lines.
     Returns the written files by name. ``summary`` defaults to ``result.summary()``; the time
     spent here is added to ``summary["timings"]["output"]`` (and ``total``).
     """
+    from .transaction import replace_dir
+
+    with replace_dir(directory, overwrite=overwrite, owned=RUN_FILES, option="directory") as stage:
+        names = write_run_files(result, stage, summary, figures=figures, report=report,
+                                profile_x=profile_x, profile_phi=profile_phi)
+    written = {name: Path(directory) / name for name in names}
+    if log:
+        for path in written.values():
+            log(f"wrote {path}")
+    return written
+
+
+def write_run_files(
+    result,
+    directory: Path,
+    summary: dict[str, Any] | None = None,
+    *,
+    figures: bool = True,
+    report: bool = True,
+    profile_x: float | None = None,
+    profile_phi: float | None = None,
+) -> dict[str, Path]:
+    """The files of the run directory, written into the existing ``directory``; returns them by name."""
     t0 = time.perf_counter()
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
     summary = result.summary() if summary is None else summary
     written: dict[str, Path] = {}
     fields = vertex_fields(result)
@@ -75,7 +95,4 @@ def write_outputs(
     written["summary.json"] = directory / "summary.json"
     if report:
         written["report.html"] = write_report(result, directory / "report.html", summary=summary, figures=pngs)
-    if log:
-        for name in written:
-            log(f"wrote {directory / name}")
     return written

@@ -16,6 +16,8 @@ import io as _io
 import json
 import logging
 import math
+import os
+import shutil
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -25,7 +27,7 @@ from typing import Any
 
 from .case import Case, case_from_dict
 from .errors import InputError
-from .files import atomic_write_bytes, atomic_write_text, write_json
+from .files import atomic_write_bytes, atomic_write_text, check_output_dir, write_json
 from .overrides import apply_overrides, split_path
 
 log = logging.getLogger("shellcontact")
@@ -138,13 +140,26 @@ class SweepResult:
         return csv_text(self.rows)
 
 
+SWEEP_FINAL = ("sweep.csv", "sweep.png", "force_indentation.png", "report.html")
+#: what a sweep writes into its directory (``overwrite`` replaces exactly these)
+SWEEP_ENTRIES = (*SWEEP_FINAL, "sweep.json", "steps")
+
+
 def _fingerprint(raw: dict[str, Any], source: Any) -> str:
     text = json.dumps({"case": raw, "source": str(source)}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _step_raw(case: Case, param: str, value: Any) -> dict[str, Any]:
-    return apply_overrides(case.raw, {param: value})
+def _step_cases(case: Case, param: str, vals: Sequence[Any], source: str | None) -> list[tuple[dict, Case]]:
+    """Every step's case, validated before the first solve; a bad value names its step."""
+    steps = []
+    for i, v in enumerate(vals):
+        raw = apply_overrides(case.raw, {param: v})
+        try:
+            steps.append((raw, case_from_dict(raw, source=source)))
+        except InputError as exc:
+            raise InputError(exc.field, f"{exc.message} (sweep step {i}: {param} = {v!r})") from None
+    return steps
 
 
 def _record_path(steps: Path, index: int) -> Path:
@@ -160,10 +175,10 @@ def _load_record(steps: Path, index: int, fingerprint: str) -> dict[str, Any] | 
     return rec if rec.get("fingerprint") == fingerprint and "row" in rec else None
 
 
-def _solve_summary(case: Case, previous=None):
+def _solve_summary(case: Case):
     from .analysis import solve
 
-    result = solve(case, warm_start=previous)
+    result = solve(case)
     return result, result.summary()
 
 
@@ -171,10 +186,15 @@ def _step_row(param: str, value: Any, summary: dict[str, Any]) -> dict[str, Any]
     return {param: value, **summary_row(summary)}
 
 
-def _worker(raw: dict, source: str | None, param: str, index: int, value: Any, steps: str | None, fp: str):
-    """One sweep step in a separate process (the case is re-validated from its raw dictionary)."""
-    case = case_from_dict(raw, source=source)
-    _, summary = _solve_summary(case)
+def _solve_step(raw: dict, source: str | None, param: str, index: int, value: Any, steps: str | None, fp: str,
+                case: Case | None = None):
+    """One sweep step, recorded in ``steps/`` when given (in a worker the case is re-validated from ``raw``).
+
+    Every step starts from its own case alone (no warm start from a neighbour), so a step's numbers
+    do not depend on the order, on ``jobs`` or on an interruption: a resumed sweep writes the CSV an
+    uninterrupted one would.
+    """
+    _, summary = _solve_summary(case if case is not None else case_from_dict(raw, source=source))
     row = _step_row(param, value, summary)
     if steps is not None:
         write_json(
@@ -184,44 +204,52 @@ def _worker(raw: dict, source: str | None, param: str, index: int, value: Any, s
     return index, row, summary
 
 
-def sweep(
-    case: Case,
-    param: str,
-    values: Sequence[float],
-    output_dir: str | Path | None = None,
-    *,
-    jobs: int = 1,
-    progress: Progress | None = None,
-    figures: bool = True,
-) -> SweepResult:
-    """Solve ``case`` for each value of the case-file key ``param`` (dotted path) in order.
+def _worker_init(parent: int) -> None:
+    """A sweep worker dies with its parent (SIGKILL included) and leaves Ctrl-C to it."""
+    import signal
+    import sys
 
-    With ``output_dir``: step records ``steps/step-NNNN.json`` (written as each step finishes;
-    a record is reused when its case fingerprint matches), then ``sweep.csv``, ``sweep.json``
-    and the figures ``sweep.png`` and, with contact, ``force_indentation.png``. Serial sweeps
-    pass the previous step's result to ``solve`` as a warm start when ``solve`` accepts one.
-    """
-    split_path(param)
-    if not values:
-        raise InputError("--values", "no values given")
-    vals = [_value(v) for v in values]
-    source = str(case.source) if case.source is not None else None
-    # validate every step's case before any work, so a bad parameter fails at once
-    step_raws = [_step_raw(case, param, v) for v in vals]
-    case_from_dict(step_raws[0], source=source)
-    fps = [_fingerprint(r, source) for r in step_raws]
-    out = Path(output_dir) if output_dir is not None else None
-    steps = out / "steps" if out is not None else None
-    if steps is not None and steps.is_dir():
-        for tmp in steps.glob(".step-*.tmp"):  # left by a sweep killed while writing a record
-            tmp.unlink(missing_ok=True)
-    if out is not None:
-        write_json(out / "sweep.json", {"case_file": source, "param": param, "values": vals, "jobs": jobs})
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the pool on Ctrl-C
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:  # PR_SET_PDEATHSIG = 1: the kernel kills us when the parent (its forking thread) ends
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:  # the parent died before the death signal was armed
+        os._exit(1)
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel what has not started and kill the workers now (a shutdown would wait for running steps)."""
+    processes = list(getattr(pool, "_processes", {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        proc.kill()
+    for proc in processes:
+        proc.join(timeout=1.0)
+
+
+def _run_steps(
+    param: str,
+    vals: list[Any],
+    steps_in: list[tuple[dict, Case]],
+    source: str | None,
+    fps: list[str],
+    steps: Path | None,
+    jobs: int,
+    progress: Progress | None,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]], int]:
+    """Solve the steps without a record in ``steps`` (serially or in ``jobs`` processes)."""
     n = len(vals)
     rows: list[dict[str, Any] | None] = [None] * n
     sums: list[dict[str, Any] | None] = [None] * n
     reused = 0
     if steps is not None:
+        steps.mkdir(parents=True, exist_ok=True)
+        for tmp in steps.glob(".step-*.tmp"):  # left by a sweep killed while writing a record
+            tmp.unlink(missing_ok=True)
         for i in range(n):
             rec = _load_record(steps, i, fps[i])
             if rec is not None:
@@ -233,66 +261,139 @@ def sweep(
     if progress:
         progress(done, n, f"{param} sweep")
     todo = [i for i in range(n) if rows[i] is None]
+    where = str(steps) if steps is not None else None
+
+    def finished(i: int, row: dict[str, Any], summary: dict[str, Any]) -> None:
+        nonlocal done
+        rows[i], sums[i] = row, summary
+        done += 1
+        log.info("step %d/%d: %s = %g, energy %.6g", i + 1, n, param, vals[i], summary.get("energy", math.nan))
+        if progress:
+            progress(done, n, f"{param} = {vals[i]:g}")
+
     if jobs > 1 and len(todo) > 1:
-        with ProcessPoolExecutor(max_workers=min(jobs, len(todo)), mp_context=get_context("spawn")) as pool:
-            futs = [
-                pool.submit(_worker, step_raws[i], source, param, i, vals[i], str(steps) if steps else None, fps[i])
-                for i in todo
-            ]
+        pool = ProcessPoolExecutor(max_workers=min(jobs, len(todo)), mp_context=get_context("spawn"),
+                                   initializer=_worker_init, initargs=(os.getpid(),))
+        try:
+            futs = [pool.submit(_solve_step, steps_in[i][0], source, param, i, vals[i], where, fps[i]) for i in todo]
             for fut in as_completed(futs):
-                i, row, summary = fut.result()
-                rows[i], sums[i] = row, summary
-                done += 1
-                log.info("step %d/%d: %s = %g done", i + 1, n, param, vals[i])
-                if progress:
-                    progress(done, n, f"{param} = {vals[i]:g}")
+                finished(*fut.result())
+        except BaseException:  # Ctrl-C, SIGTERM, a failed step: stop at once
+            _stop(pool)
+            raise
+        pool.shutdown()
     else:
-        previous: tuple[int, Any] = (-2, None)
         for i in todo:
-            step_case = case_from_dict(step_raws[i], source=source)
-            result, summary = _solve_summary(step_case, previous[1] if previous[0] == i - 1 else None)
-            previous = (i, result)
-            rows[i], sums[i] = _step_row(param, vals[i], summary), summary
-            if steps is not None:
-                write_json(
-                    _record_path(steps, i),
-                    {"index": i, "value": vals[i], "fingerprint": fps[i], "row": rows[i], "summary": summary},
-                )
-            done += 1
-            log.info("step %d/%d: %s = %g, energy %.6g", i + 1, n, param, vals[i], summary.get("energy", math.nan))
-            if progress:
-                progress(done, n, f"{param} = {vals[i]:g}")
-    res = SweepResult(param, [float(v) for v in vals], list(rows), list(sums), reused)  # type: ignore[arg-type]
-    if out is not None:
-        res.files["sweep.csv"] = write_csv(out / "sweep.csv", res.rows)
-        if figures:
-            from . import plots
+            finished(*_solve_step(steps_in[i][0], source, param, i, vals[i], where, fps[i], steps_in[i][1]))
+    return rows, sums, reused  # type: ignore[return-value]
 
-            pngs = {"sweep.png": plots.png_bytes(plots.plot_sweep(res.rows, param))}
-            fi = plots.plot_force_indentation(res.rows, param)
-            if fi is not None:
-                pngs["force_indentation.png"] = plots.png_bytes(fi)
-            for name, data in pngs.items():
-                atomic_write_bytes(out / name, data)
-                res.files[name] = out / name
-        from .report import write_study_report
 
-        about = {"case file": source, "parameter": param, "values": len(vals), "reused steps": reused}
-        res.files["report.html"] = write_study_report(
-            out / "report.html", f"shellcontact sweep: {param}", res.rows, pngs if figures else {}, about, case.raw
-        )
+def _same_sweep(directory: Path, manifest: dict[str, Any]) -> bool:
+    """Whether ``directory`` holds (part of) this very sweep: same case, parameter and values."""
+    try:
+        old = json.loads((directory / "sweep.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(old, dict) and all(old.get(k) == manifest[k] for k in ("case", "param", "values"))
+
+
+def sweep(
+    case: Case,
+    param: str,
+    values: Sequence[float],
+    output_dir: str | Path | None = None,
+    *,
+    overwrite: bool = False,
+    wait: bool = False,
+    jobs: int = 1,
+    progress: Progress | None = None,
+    figures: bool = True,
+) -> SweepResult:
+    """Solve ``case`` for each value of the case-file key ``param`` (dotted path) in order.
+
+    Every step's case is validated before the first solve. With ``output_dir``: step records
+    ``steps/step-NNNN.json`` (written as each step finishes; a record is reused when its case
+    fingerprint matches, so running the same sweep again resumes it), then ``sweep.csv``,
+    ``sweep.json`` and the figures ``sweep.png`` and, with contact, ``force_indentation.png``, and
+    ``report.html``, which appear together. A non-empty directory that does not hold this sweep is
+    refused unless ``overwrite``; then the new sweep is staged beside it and replaces it only when
+    complete (the previous result is kept until then; an interrupted ``overwrite`` sweep starts over).
+    """
+    from .transaction import DirectoryLock, Staging, name_in_target, remove_stale
+
+    split_path(param)
+    if not values:
+        raise InputError("--values", "no values given")
+    vals = [_value(v) for v in values]
+    source = str(case.source) if case.source is not None else None
+    steps_in = _step_cases(case, param, vals, source)
+    fps = [_fingerprint(raw, source) for raw, _ in steps_in]
+    if output_dir is None:
+        rows, sums, reused = _run_steps(param, vals, steps_in, source, fps, None, jobs, progress)
+        return SweepResult(param, [float(v) for v in vals], rows, sums, reused)
+
+    target = Path(output_dir)
+    manifest = {"case_file": source, "case": _fingerprint(case.raw, source), "param": param, "values": vals}
+    resume = not overwrite and _same_sweep(target, manifest)
+    if not resume:
+        check_output_dir(target, overwrite)
+    with DirectoryLock(target, wait=wait):
+        remove_stale(target)
+        resume = not overwrite and _same_sweep(target, manifest)
+        if not resume:
+            check_output_dir(target, overwrite)
+        # a fresh or resumed sweep records its steps in place (resumable); one replacing another
+        # result works beside it and keeps that result until the new one is complete
+        in_place = resume or not target.exists() or not any(target.iterdir())
+        created, fresh = not target.exists(), in_place and not resume
+        stage = None if in_place else Staging(target)
+        work = target if stage is None else stage.path
+        try:
+            work.mkdir(parents=True, exist_ok=True)
+            write_json(work / "sweep.json", manifest)
+            rows, sums, reused = _run_steps(param, vals, steps_in, source, fps, work / "steps", jobs, progress)
+            res = SweepResult(param, [float(v) for v in vals], rows, sums, reused)
+            if stage is None:
+                stage = Staging(target)  # the final files appear together beside the step records
+            names = _write_sweep_files(res, stage.path, param, figures, source, case.raw)
+            stage.commit(SWEEP_FINAL if in_place else SWEEP_ENTRIES)
+        except BaseException as exc:
+            if stage is not None:
+                stage.discard()
+                if isinstance(exc, OSError):
+                    name_in_target(exc, stage.path, target)
+            if fresh and not any((target / "steps").glob("step-*.json")):  # nothing worth resuming: leave nothing
+                if created:
+                    shutil.rmtree(target, ignore_errors=True)
+                else:
+                    shutil.rmtree(target / "steps", ignore_errors=True)
+                    (target / "sweep.json").unlink(missing_ok=True)
+            raise
+    res.files = {name: target / name for name in names}
     return res
 
 
-def clear_sweep_dir(path: str | Path) -> None:
-    """Remove what ``sweep`` writes (step records, CSV, manifest, figures) — nothing else."""
-    path = Path(path)
-    steps = path / "steps"
-    if steps.is_dir():
-        for f in steps.glob("step-*.json"):
-            f.unlink()
-    for name in ("sweep.csv", "sweep.json", "sweep.png", "force_indentation.png", "report.html"):
-        (path / name).unlink(missing_ok=True)
+def _write_sweep_files(res: SweepResult, out: Path, param: str, figures: bool, source: str | None,
+                       raw: dict[str, Any]) -> list[str]:
+    """sweep.csv, the figures and report.html into ``out``; returns their names."""
+    names = ["sweep.csv"]
+    write_csv(out / "sweep.csv", res.rows)
+    pngs: dict[str, bytes] = {}
+    if figures:
+        from . import plots
+
+        pngs["sweep.png"] = plots.png_bytes(plots.plot_sweep(res.rows, param))
+        fi = plots.plot_force_indentation(res.rows, param)
+        if fi is not None:
+            pngs["force_indentation.png"] = plots.png_bytes(fi)
+        for name, data in pngs.items():
+            atomic_write_bytes(out / name, data)
+        names += list(pngs)
+    from .report import write_study_report
+
+    about = {"case file": source, "parameter": param, "values": len(res.values), "reused steps": res.reused}
+    write_study_report(out / "report.html", f"shellcontact sweep: {param}", res.rows, pngs, about, raw)
+    return [*names, "report.html"]
 
 
 # -- convergence --------------------------------------------------------------------------------------
@@ -326,11 +427,17 @@ def _rate(e0: Any, e1: Any, h0: float, h1: float) -> float | None:
     return math.log(e0 / e1) / math.log(h0 / h1)
 
 
+#: what a convergence study writes into its directory (``overwrite`` replaces exactly these)
+CONVERGENCE_FILES = ("convergence.csv", "convergence.json", "convergence.png", "report.html")
+
+
 def convergence(
     case: Case,
     levels: int = 4,
     output_dir: str | Path | None = None,
     *,
+    overwrite: bool = False,
+    wait: bool = False,
     progress: Progress | None = None,
     figures: bool = True,
 ) -> ConvergenceResult:
@@ -339,9 +446,23 @@ def convergence(
     Columns: level, refine, vertices, elements, dofs, h, energy, the tracked quantity, and for all
     but the finest level the relative errors against the finest level (``error_energy``,
     ``error_<quantity>``) with observed rates log(e_{l−1}/e_l)/log(h_{l−1}/h_l).
+    ``output_dir`` (convergence.csv, convergence.json, convergence.png, report.html) appears whole
+    or not at all; a non-empty one is refused unless ``overwrite``.
     """
     if not isinstance(levels, int) or levels < 2:
         raise InputError("--levels", f"must be an integer >= 2, got {levels!r}")
+    if output_dir is None:
+        return _convergence(case, levels, None, progress, figures)
+    from .transaction import replace_dir
+
+    with replace_dir(output_dir, overwrite=overwrite, owned=CONVERGENCE_FILES, wait=wait) as stage:
+        res = _convergence(case, levels, stage, progress, figures)
+    res.files = {name: Path(output_dir) / name for name in res.files}
+    return res
+
+
+def _convergence(case: Case, levels: int, out: Path | None, progress: Progress | None,
+                 figures: bool) -> ConvergenceResult:
     r0 = case.mesh.refine
     rows, sums = [], []
     qname = None
@@ -383,8 +504,7 @@ def convergence(
                 _rate(rows[k - 1][f"error_{key}"], r[f"error_{key}"], rows[k - 1]["h"], r["h"]) if k > 0 else None
             )
     res = ConvergenceResult(rows, qname or "", sums)
-    if output_dir is not None:
-        out = Path(output_dir)
+    if out is not None:
         res.files["convergence.csv"] = write_csv(out / "convergence.csv", rows)
         write_json(
             out / "convergence.json",
