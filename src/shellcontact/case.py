@@ -18,11 +18,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .errors import InputError
 from .geometry import Shell
 from .linalg import BACKENDS
 from .loads import LineLoad, Loads, PointLoad
-from .material import MATERIALS, Material
+from .material import MATERIALS, Material, check_stiffness_range
 from .mesh import PATTERNS, MeshSpec
 from .options import SolverOptions
 from .punches import PUNCH, SHAPES, ZONE, PunchSpec, parse_punches
@@ -233,8 +235,15 @@ def parse_shell(d: Any, material: Any = None) -> Shell:
     alpha, beta = (0.0, 2.0 * math.pi) if full else v["angle"]
     if not full and not alpha < beta:
         raise InputError("shell.angle", f"needs alpha < beta, got [{math.degrees(alpha):g}, {math.degrees(beta):g}]")
-    return Shell(radius=v["radius"], length=v["length"], thickness=v["thickness"],
-                 material=parse_material(v, material), alpha=alpha, beta=beta, full=full, x_start=v["x_start"])
+    shell = Shell(radius=v["radius"], length=v["length"], thickness=v["thickness"],
+                  material=parse_material(v, material), alpha=alpha, beta=beta, full=full, x_start=v["x_start"])
+    t = shell.t(*np.meshgrid(np.linspace(shell.x_min, shell.x_max, 9), np.linspace(alpha, beta, 9)))
+    try:
+        check_stiffness_range(shell.material, float(t.min()), float(t.max()))
+    except InputError as exc:  # name the key the user wrote
+        field = exc.field if material is not None else exc.field.replace("material.", "shell.", 1)
+        raise InputError(field, exc.message) from None
+    return shell
 
 
 def parse_mesh(d: Any) -> MeshSpec:

@@ -150,7 +150,7 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
 
     t0 = time.perf_counter()
     con.status("solving ...")
-    result = solve(case, progress=show if con.bar else None)
+    result = solve(case, progress=show if con.bar else None, max_memory=args.max_memory)
     con.clear()
     log.info("solved in %.3f s", time.perf_counter() - t0)
     summary = result.summary()
@@ -191,7 +191,7 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
     from .files import check_output_dir
     from .studies import clear_sweep_dir, parse_values, sweep
 
-    values = parse_values(args.values)
+    values = parse_values(args.values, args.max_memory)
     if args.jobs < 1:
         raise InputError("--jobs", f"must be >= 1, got {args.jobs}")
     case, _ = _load(args)
@@ -200,7 +200,8 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
         clear_sweep_dir(out)
     elif not (out / "sweep.json").is_file():
         check_output_dir(out, False)  # a non-empty directory that is not a sweep: refuse
-    res = sweep(case, args.param, values, out, jobs=args.jobs, progress=con.progress, figures=not args.no_figures)
+    res = sweep(case, args.param, values, out, jobs=args.jobs, progress=con.progress, figures=not args.no_figures,
+                max_memory=args.max_memory)
     if res.reused:
         con.print(f"resumed: {res.reused} of {len(values)} steps were already done")
     con.print(res.csv().rstrip())
@@ -215,7 +216,8 @@ def cmd_convergence(args: argparse.Namespace, con: Console) -> int:
     case, _ = _load(args)
     out = Path(args.output) if args.output else _default_dir(args.case, "-convergence")
     check_output_dir(out, args.force)
-    res = convergence(case, args.levels, out, progress=con.progress, figures=not args.no_figures)
+    res = convergence(case, args.levels, out, progress=con.progress, figures=not args.no_figures,
+                      max_memory=args.max_memory)
     con.print(convergence_table(res))
     con.print(f"wrote {out}/: {', '.join(res.files)}")
     return EXIT_OK
@@ -261,6 +263,8 @@ def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
     )
     p.add_argument("--force", action="store_true", help="overwrite an existing non-empty output directory")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.add_argument("--max-memory", metavar="SIZE", help="memory a solve may need, e.g. 8G or 512M (default: the "
+                   "memory available); a case estimated to need more is refused before anything is built")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -43,26 +43,36 @@ CONTACT_COLUMNS = (
 
 
 # -- values ----------------------------------------------------------------------------------------------
-def parse_values(spec: str) -> list[float]:
-    """``'0:5e-3:11'`` (start:stop:count, both ends included) or ``'1e-3,2e-3,4e-3'``."""
+def parse_values(spec: str, max_memory: float | str | None = None) -> list[float]:
+    """``'0:5e-3:11'`` (start:stop:count, both ends included) or ``'1e-3,2e-3,4e-3'``. A count
+    whose steps cannot be recorded in ``max_memory`` (default: the memory available) is refused
+    before any list is built (``sizing.check_steps``)."""
+    from .sizing import check_steps
+
     where = "--values"
     text = spec.strip()
-    try:
-        if ":" in text:
-            parts = text.split(":")
+    usage = f"expected start:stop:count (e.g. 0:5e-3:11) or a comma list (e.g. 1e-3,2e-3), got {spec!r}"
+    if ":" in text:
+        parts = text.split(":")
+        try:
             if len(parts) != 3:
                 raise ValueError
             start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
-            if count < 1:
-                raise InputError(where, f"count must be >= 1, got {count}")
-            if count == 1:
-                return [start]
-            return [start + (stop - start) * i / (count - 1) for i in range(count)]
+        except ValueError:
+            raise InputError(where, usage) from None
+        if count < 1:
+            raise InputError(where, f"count must be >= 1, got {count}")
+        check_steps(count, max_memory)  # before the list is built
+        if not (math.isfinite(start) and math.isfinite(stop)):
+            raise InputError(where, f"values must be finite, got {spec!r}")
+        if count == 1:
+            return [start]
+        return [start + (stop - start) * i / (count - 1) for i in range(count)]
+    check_steps(text.count(",") + 1, max_memory)
+    try:
         vals = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
-        raise InputError(
-            where, f"expected start:stop:count (e.g. 0:5e-3:11) or a comma list (e.g. 1e-3,2e-3), got {spec!r}"
-        ) from None
+        raise InputError(where, usage) from None
     if not vals:
         raise InputError(where, "no values given")
     if not all(math.isfinite(v) for v in vals):
@@ -160,10 +170,10 @@ def _load_record(steps: Path, index: int, fingerprint: str) -> dict[str, Any] | 
     return rec if rec.get("fingerprint") == fingerprint and "row" in rec else None
 
 
-def _solve_summary(case: Case, previous=None):
+def _solve_summary(case: Case, previous=None, max_memory: float | str | None = None):
     from .analysis import solve
 
-    result = solve(case, warm_start=previous)
+    result = solve(case, warm_start=previous, max_memory=max_memory)
     return result, result.summary()
 
 
@@ -171,10 +181,11 @@ def _step_row(param: str, value: Any, summary: dict[str, Any]) -> dict[str, Any]
     return {param: value, **summary_row(summary)}
 
 
-def _worker(raw: dict, source: str | None, param: str, index: int, value: Any, steps: str | None, fp: str):
+def _worker(raw: dict, source: str | None, param: str, index: int, value: Any, steps: str | None, fp: str,
+            max_memory: float | str | None = None):
     """One sweep step in a separate process (the case is re-validated from its raw dictionary)."""
     case = case_from_dict(raw, source=source)
-    _, summary = _solve_summary(case)
+    _, summary = _solve_summary(case, max_memory=max_memory)
     row = _step_row(param, value, summary)
     if steps is not None:
         write_json(
@@ -193,6 +204,7 @@ def sweep(
     jobs: int = 1,
     progress: Progress | None = None,
     figures: bool = True,
+    max_memory: float | str | None = None,
 ) -> SweepResult:
     """Solve ``case`` for each value of the case-file key ``param`` (dotted path) in order.
 
@@ -200,10 +212,14 @@ def sweep(
     a record is reused when its case fingerprint matches), then ``sweep.csv``, ``sweep.json``
     and the figures ``sweep.png`` and, with contact, ``force_indentation.png``. Serial sweeps
     pass the previous step's result to ``solve`` as a warm start when ``solve`` accepts one.
+    ``max_memory`` bounds every step's solve (``analysis.solve``) and the steps' records.
     """
+    from .sizing import check_steps
+
     split_path(param)
     if not values:
         raise InputError("--values", "no values given")
+    check_steps(len(values), max_memory)
     vals = [_value(v) for v in values]
     source = str(case.source) if case.source is not None else None
     # validate every step's case before any work, so a bad parameter fails at once
@@ -236,7 +252,8 @@ def sweep(
     if jobs > 1 and len(todo) > 1:
         with ProcessPoolExecutor(max_workers=min(jobs, len(todo)), mp_context=get_context("spawn")) as pool:
             futs = [
-                pool.submit(_worker, step_raws[i], source, param, i, vals[i], str(steps) if steps else None, fps[i])
+                pool.submit(_worker, step_raws[i], source, param, i, vals[i], str(steps) if steps else None, fps[i],
+                            max_memory)
                 for i in todo
             ]
             for fut in as_completed(futs):
@@ -250,7 +267,7 @@ def sweep(
         previous: tuple[int, Any] = (-2, None)
         for i in todo:
             step_case = case_from_dict(step_raws[i], source=source)
-            result, summary = _solve_summary(step_case, previous[1] if previous[0] == i - 1 else None)
+            result, summary = _solve_summary(step_case, previous[1] if previous[0] == i - 1 else None, max_memory)
             previous = (i, result)
             rows[i], sums[i] = _step_row(param, vals[i], summary), summary
             if steps is not None:
@@ -333,6 +350,7 @@ def convergence(
     *,
     progress: Progress | None = None,
     figures: bool = True,
+    max_memory: float | str | None = None,
 ) -> ConvergenceResult:
     """Nested refinement study: level l solves with ``mesh.refine = r0 + l`` (r0 = the case's refine).
 
@@ -343,13 +361,14 @@ def convergence(
     if not isinstance(levels, int) or levels < 2:
         raise InputError("--levels", f"must be an integer >= 2, got {levels!r}")
     r0 = case.mesh.refine
+    _check_finest(case, r0 + levels - 1, max_memory)
     rows, sums = [], []
     qname = None
     for lv in range(levels):
         if progress:
             progress(lv, levels, f"level {lv} (refine {r0 + lv})")
         c = case_from_dict(apply_overrides(case.raw, {"mesh.refine": r0 + lv}), source=case.source)
-        result, summary = _solve_summary(c)
+        result, summary = _solve_summary(c, max_memory=max_memory)
         name, q = _quantity(summary)
         qname = qname or name
         if name != qname:
@@ -414,6 +433,21 @@ def convergence(
             case.raw,
         )
     return res
+
+
+def _check_finest(case: Case, refine: int, max_memory: float | str | None) -> None:
+    """Refuse a convergence study whose finest level cannot fit, before the first level is solved."""
+    import dataclasses
+
+    from .punches import place_punches
+    from .sizing import check_size
+
+    finest = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, refine=refine))
+    try:
+        check_size(finest, place_punches(case.punches, case.shell), max_memory,
+                   what=f"the finest level (refine {refine})")
+    except InputError as exc:
+        raise InputError("--levels", f"{exc.message} (or fewer --levels)") from None
 
 
 def convergence_table(res: ConvergenceResult) -> str:
