@@ -43,7 +43,7 @@ ASSEMBLY_BYTES = 21e3
 #: bytes per stored nonzero of a CSR matrix (value + column index)
 CSR_BYTES = 12.0
 #: factor nonzeros nnz(L) ≈ c · n · log₂ n by backend (SuperLU: L + U), fitted in benchmarks/memory.py
-FILL = {"pardiso": 13.0, "cholmod": 10.0, "superlu": 26.0}
+FILL = {"pardiso": 13.0, "cholmod": 10.0, "superlu": 20.0}
 #: bytes per factor nonzero: the value and the backend's own structures (PARDISO 2.84 GB of factor
 #: memory for 251 M nonzeros at 984k unknowns: 11.3)
 FACTOR_BYTES = 11.5
