@@ -48,12 +48,24 @@ def strict_loads(text: str):
 def test_dual_agrees_with_active_set_from_1e_12_to_1e_2() -> None:
     """Both exact methods solve the same QP; they must give the same force at every indentation (the
     dual returned force 0 at 1e-12: its stopping test was absolute, relative to max|G| of the zone)."""
+    compliance = {}
     for d in 10.0 ** np.arange(-12, -1):
         case = case_from_dict(panel(punch={"indentation": float(d)}))
-        forces = {m: solve(case, method=m).summary()["contact"][0]["force_magnitude"] for m in ("active-set", "dual")}
+        results = {m: solve(case, method=m) for m in ("active-set", "dual")}
+        forces = {m: r.summary()["contact"][0]["force_magnitude"] for m, r in results.items()}
         assert forces["active-set"] > 0
         # tol = 1e-10 on the scaled residuals; 100x for the conditioning of the active block of S
         assert abs(forces["dual"] - forces["active-set"]) <= 1e-8 * forces["active-set"], (d, forces)
+        for m, r in results.items():
+            c = r.contact
+            if c.active.sum() == 1:  # one contact point i: Λ_i = −G_i / S_ii exactly (F = 0)
+                i = int(np.flatnonzero(c.active)[0])
+                compliance.setdefault((m, i), []).append(-c.operator.G[i] / c.Lambda[i])
+    # while the active set is the same single point (same mesh: the zone is given), S_ii is the same
+    # number: linear in the overlap to round-off, down to 1e-12
+    assert compliance and all(len(v) >= 5 for v in compliance.values()), compliance
+    for v in compliance.values():
+        assert np.ptp(v) <= 1e-12 * np.mean(v), v
 
 
 def _scaled(qp: ContactQP, s: float) -> ContactQP:
