@@ -49,7 +49,7 @@ log = logging.getLogger("shellcontact")
 
 #: the penalty ratio κ = ε·E₂t/a² (``penalty_ratio``) predicts the penalty method's relative force error
 #: κ + ε_mach/κ (penetration over deflection; gap round-off over penetration). Above ``PENALTY_WARN`` a
-#: warning, above ``PENALTY_REFUSE`` the penalty is refused (docs/solvers.md, "Penalty parameter")
+#: warning, above ``PENALTY_REFUSE`` the penalty is refused (docs/solvers.md, "Choosing ε (penalty)")
 PENALTY_WARN = 1e-3
 PENALTY_REFUSE = 1e-1
 
@@ -103,25 +103,28 @@ def penalty_ratio(case: Case, eps: float) -> float:
 def check_penalty(case: Case, eps: float, continuation: tuple[float, ...] = ()) -> list[str]:
     """Refuse an ε whose predicted force error κ + ε_mach/κ exceeds ``PENALTY_REFUSE`` (InputError
     naming ``solver.penalty`` or ``solver.continuation``); the warnings for one above ``PENALTY_WARN``."""
+    eps_mach = float(np.finfo(float).eps)
+
     def error(e: float) -> tuple[float, float]:
         kappa = penalty_ratio(case, e)
-        return kappa, kappa + np.finfo(float).eps / kappa
+        return kappa, kappa + eps_mach / kappa
+
+    def between(limit: float) -> str:  # the ε range whose predicted error stays (about) below limit
+        return f"between {_eps_for(case, eps_mach / limit):.3g} and {_eps_for(case, limit):.3g}"
 
     for key, values in (("solver.continuation", continuation), ("solver.penalty", (eps,))):
         for e in values:
             kappa, err = error(e)
             if not err <= PENALTY_REFUSE:
-                why = ("the penetration is comparable to the deflection" if kappa > 0.5 else
+                why = ("the penetration is comparable to the deflection" if kappa > eps_mach / kappa else
                        "the gaps' round-off is comparable to the penetration")
                 raise InputError(key, f"ε = {e:.4g} gives κ = ε·E₂t/a² = {kappa:.3g} and a predicted force error "
-                                 f"κ + ε_mach/κ = {err:.2g} > {PENALTY_REFUSE:g}: {why}; the penalty solution is "
-                                 f"meaningful for ε between {_eps_for(case, 2.2e-14):.3g} and "
-                                 f"{_eps_for(case, 0.1):.3g} (default {default_penalty(case):.3g})")
+                                 f"κ + ε_mach/κ = {err:.2g} > {PENALTY_REFUSE:g}: {why}; ε must lie "
+                                 f"{between(PENALTY_REFUSE)} (default {default_penalty(case):.3g})")
     kappa, err = error(eps)
     if err > PENALTY_WARN:
         return [f"solver.penalty: ε = {eps:.4g} (κ = ε·E₂t/a² = {kappa:.3g}) predicts a relative force error of "
-                f"about {err:.2g} (κ + ε_mach/κ); between {_eps_for(case, 2.2e-12):.3g} and "
-                f"{_eps_for(case, 1e-3):.3g} it stays below {PENALTY_WARN:g}"]
+                f"about {err:.2g} (κ + ε_mach/κ); {between(PENALTY_WARN)} it stays below {PENALTY_WARN:g}"]
     return []
 
 
