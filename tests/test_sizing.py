@@ -111,3 +111,18 @@ def test_convergence_refuses_a_finest_level_that_cannot_fit(tmp_path: Path, caps
     assert code == 2
     err = capsys.readouterr().err
     assert "--levels" in err and "refine 39" in err
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "examples").glob("*.toml")), ids=lambda p: p.stem)
+def test_counts_on_every_example(path: Path) -> None:
+    """Exact dofs and stiffness nonzeros; contact rows exact, or over by the seam of a full cylinder
+    whose zone wraps around (the vertices at φ = 0 and 360° are one constraint point)."""
+    from shellcontact.case import load_case
+
+    case = load_case(path)
+    est = sizing.estimate(case, place_punches(case.punches, case.shell))
+    d = discretize(case, case.solver.contact_points)
+    assert est.dofs == d.space.ndofs and est.nnz == d.A.nnz
+    rows = d.operator.m if d.operator is not None else 0
+    seam = len(set(d.space.mesh.p[0, d.space.mesh.edge_vertices("phi_min")])) if case.shell.full else 0
+    assert rows <= est.contact_rows <= rows + seam

@@ -208,9 +208,11 @@ def _zone_rows(punch, shell, spec: MeshSpec, xs, ss, levels: int, points: str) -
     candidate zone, whose edges are node lines."""
     import numpy as np
 
+    tol = 1e-9 * max(shell.length, shell.s_max - shell.s_min)  # as ShellMesh: lines within it coincide
     x0, x1 = punch.zone.x
-    cx = max(int(np.count_nonzero((xs >= x0 - 1e-12) & (xs <= x1 + 1e-12))) - 1, 0)
-    cs = sum(max(int(np.count_nonzero((ss >= shell.radius * p0 - 1e-12) & (ss <= shell.radius * p1 + 1e-12))) - 1, 0)
+    cx = max(int(np.count_nonzero((xs >= x0 - tol) & (xs <= x1 + tol))) - 1, 0)
+    a = shell.radius
+    cs = sum(max(int(np.count_nonzero((ss >= a * p0 - tol) & (ss <= a * p1 + tol))) - 1, 0)
              for p0, p1 in punch.zone.phi)
     nv, ne, nf = _refined(*_grid(spec, float(cx), float(cs)), levels)
     return nv + (nf if points == "vertices+midpoints" else 0.0)
