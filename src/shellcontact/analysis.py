@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -27,13 +29,14 @@ import scipy.sparse as sp
 from . import model
 from .case import Case
 from .contact import ContactOperator, contact_operator, penetration_outside
-from .errors import InputError
+from .errors import InputError, SolverError
 from .linalg import factorize
 from .loads import load_vector
 from .mesh import ShellMesh, build_mesh
 from .options import SolverOptions
-from .punches import Punch, fitted_lines, focus_lines, place_punches
+from .punches import Punch, check_linear_range, place_punches
 from .results import ShellSolution
+from .sizing import check_size, mesh_lines
 from .solvers import ContactQP, ContactSolution
 from .solvers.methods import METHODS
 from .solvers.screening import factorize_screened, solve_screened
@@ -42,6 +45,14 @@ from .spaces import ShellSpace
 from .supports import Reduction, edge_constrained_dofs
 
 KKT_KEYS = ("stationarity", "penetration", "dual_feasibility", "complementarity", "duality_gap")
+
+log = logging.getLogger("shellcontact")
+
+#: the penalty ratio κ = ε·E₂t/a² (``penalty_ratio``) predicts the penalty method's relative force error
+#: κ + ε_mach/κ (penetration over deflection; gap round-off over penetration). Above ``PENALTY_WARN`` a
+#: warning, above ``PENALTY_REFUSE`` the penalty is refused (docs/solvers.md, "Choosing ε (penalty)")
+PENALTY_WARN = 1e-3
+PENALTY_REFUSE = 1e-1
 
 
 class Timer:
@@ -74,9 +85,52 @@ def default_penalty(case: Case) -> float:
     E₂ is the material's hoop modulus σ22/ε22 at σ11 = σ12 = 0: Young's modulus E of an isotropic
     shell, the circumferential modulus E2 of an orthotropic one.
     """
+    return 1e-6 / penalty_ratio(case, 1.0)
+
+
+def penalty_ratio(case: Case, eps: float) -> float:
+    """κ = ε·E₂t/a²: the shell's ring stiffness E₂t/a² over the springs' stiffness 1/ε per unit area.
+
+    The penetration is about κ times the deflection (the model error of the penalty solution), and
+    the gaps' round-off, ε_mach times the deflection, is ε_mach/κ of the penetration, from which the
+    pressure (penetration/ε) is computed: the relative force error is about κ + ε_mach/κ (measured on
+    the paper panel at κ = 1e-14 … 1e2: docs/solvers.md). The default ε gives κ = 1e-6.
+    """
     sh = case.shell
     t = float(np.mean(sh.t(np.array([sh.x_min, sh.x_max]), np.array([sh.alpha, sh.beta]))))
-    return 1e-6 * sh.radius**2 / (sh.material.hoop_modulus * t)
+    return eps * sh.material.hoop_modulus * t / sh.radius**2
+
+
+def check_penalty(case: Case, eps: float, continuation: tuple[float, ...] = ()) -> list[str]:
+    """Refuse an ε whose predicted force error κ + ε_mach/κ exceeds ``PENALTY_REFUSE`` (InputError
+    naming ``solver.penalty`` or ``solver.continuation``); the warnings for one above ``PENALTY_WARN``."""
+    eps_mach = float(np.finfo(float).eps)
+
+    def error(e: float) -> tuple[float, float]:
+        kappa = penalty_ratio(case, e)
+        return kappa, kappa + eps_mach / kappa
+
+    def between(limit: float) -> str:  # the ε range whose predicted error stays (about) below limit
+        return f"between {_eps_for(case, eps_mach / limit):.3g} and {_eps_for(case, limit):.3g}"
+
+    for key, values in (("solver.continuation", continuation), ("solver.penalty", (eps,))):
+        for e in values:
+            kappa, err = error(e)
+            if not err <= PENALTY_REFUSE:
+                why = ("the penetration is comparable to the deflection" if kappa > eps_mach / kappa else
+                       "the gaps' round-off is comparable to the penetration")
+                raise InputError(key, f"ε = {e:.4g} gives κ = ε·E₂t/a² = {kappa:.3g} and a predicted force error "
+                                 f"κ + ε_mach/κ = {err:.2g} > {PENALTY_REFUSE:g}: {why}; ε must lie "
+                                 f"{between(PENALTY_REFUSE)} (default {default_penalty(case):.3g})")
+    kappa, err = error(eps)
+    if err > PENALTY_WARN:
+        return [f"solver.penalty: ε = {eps:.4g} (κ = ε·E₂t/a² = {kappa:.3g}) predicts a relative force error of "
+                f"about {err:.2g} (κ + ε_mach/κ); {between(PENALTY_WARN)} it stays below {PENALTY_WARN:g}"]
+    return []
+
+
+def _eps_for(case: Case, kappa: float) -> float:
+    return kappa / penalty_ratio(case, 1.0)
 
 
 @dataclass
@@ -189,22 +243,6 @@ class Result:
         stresses, and the utilisation with ``[material] yield_stress`` (``ShellSolution.stress_extremes``)."""
         return self.solution.stress_extremes(self.case.yield_stress)
 
-    def warnings(self) -> list[str]:
-        """What changes the meaning of this result: contact beyond its zone or between its constraint
-        points, and stresses beyond yield."""
-        out = self.contact.warnings() if self.contact is not None else []
-        y = self.case.yield_stress
-        if y is not None:
-            worst = max(self.stresses.items(), key=lambda kv: kv[1]["von_mises_max"])
-            name, s = worst
-            if s["utilisation_max"] > 1.0:
-                out.append(
-                    f"linear elastic result beyond yield: von Mises stress {s['von_mises_max']:.4g} on the {name} "
-                    f"surface at x = {s['at']['x']:.4g}, phi = {s['at']['phi']:.4g} deg is {s['utilisation_max']:.3g} "
-                    "x material.yield_stress; the stresses past yield are not physical (reduce the load or "
-                    "indentation, or use a plastic analysis)")
-        return out
-
     def edge_reactions(self) -> dict[str, dict[str, list[float]]]:
         """Per supported edge: the force and moment the support exerts on the shell (global frame), the moment
         about the edge's centre (x-edge: the ring centre (x, 0, 0); φ-edge: the generator's midpoint).
@@ -249,6 +287,35 @@ class Result:
         out["residual"] = {"force": [float(c) for c in total[:3]], "moment": [float(c) for c in total[3:]]}
         out["relative_residual"] = float(np.max(np.abs(total) / np.maximum(gross, 1e-300)))
         return out
+    def warnings(self) -> list[str]:
+        """What the user must know about this result: a penalty parameter outside its accurate range,
+        KKT residuals above the requested tolerance, contact beyond the candidate zones or between the
+        constraint points, stresses beyond ``[material] yield_stress``."""
+        out = list(self.info.get("warnings", [])) + self._yield_warnings()
+        if self.contact is None:
+            return out
+        cs, tol = self.contact.solution, self.info.get("tolerance")
+        scaled = cs.info.get("scaled_residuals", {})
+        above = {k: v for k, v in scaled.items() if tol is not None and v > tol}
+        if above:
+            what = ", ".join(f"{k} {v:.2e}" for k, v in above.items())
+            why = (" (the penalty solution satisfies the contact conditions only to O(ε); the tolerance "
+                   "applies to its penalised equation)" if cs.method == "penalty" else "")
+            out.append(f"KKT: scaled residuals above the tolerance {tol:g}: {what}{why}")
+        return out + self.contact.warnings()
+
+    def _yield_warnings(self) -> list[str]:
+        y = self.case.yield_stress
+        if y is None:
+            return []
+        name, s = max(self.stresses.items(), key=lambda kv: kv[1]["von_mises_max"])
+        if s["utilisation_max"] <= 1.0:
+            return []
+        return [f"linear elastic result beyond yield: von Mises stress {s['von_mises_max']:.4g} on the {name} "
+                f"surface at x = {s['at']['x']:.4g}, phi = {s['at']['phi']:.4g} deg is {s['utilisation_max']:.3g} "
+                "x material.yield_stress; the stresses past yield are not physical (reduce the load or "
+                "indentation, or use a plastic analysis)"]
+
 
     def summary(self) -> dict[str, Any]:
         sol = self.solution
@@ -268,7 +335,7 @@ class Result:
         if self.contact is not None:
             cs = self.contact.solution
             out["contact"] = self.contact.summary()
-            out["kkt"] = {k: float(cs.residuals.get(k, float("nan"))) for k in KKT_KEYS}
+            out["kkt"] = {k: float(cs.residuals[k]) for k in KKT_KEYS if k in cs.residuals}
             if "force_balance" in cs.residuals:  # force control (docs/solvers.md, KKT residuals)
                 out["kkt"]["force_balance"] = float(cs.residuals["force_balance"])
             # the scaled residuals are what the solver compares with [solver] tolerance
@@ -328,19 +395,17 @@ class Discretization:
 def case_mesh(case: Case, punches: list[Punch] | tuple[()] = ()) -> ShellMesh:
     """The mesh of a case: node lines at the loads and at the punches' fitted lines (zone edges,
     first-contact lines), graded toward first contact when ``[mesh.grading]`` has a ratio but no focus."""
-    xs, ps = fitted_lines(punches, case.shell)
-    fx, fp = focus_lines(punches)
-    loads = case.loads
-    xs += [p.x for p in loads.points] + [ln.x for ln in loads.lines if ln.x is not None]
-    ps += [p.phi for p in loads.points] + [ln.phi for ln in loads.lines if ln.phi is not None]
-    return build_mesh(case.shell, case.mesh, xs, ps, fx, fp)
+    return build_mesh(case.shell, case.mesh, *mesh_lines(case, punches))
 
 
-def discretize(case: Case, contact_points: str = "vertices", timer: Timer | None = None) -> Discretization:
-    """Mesh (fitted to the punches), space, assembly, supports and contact operator of ``case``."""
+def discretize(case: Case, contact_points: str = "vertices", timer: Timer | None = None,
+               punches: list[Punch] | None = None) -> Discretization:
+    """Mesh (fitted to the punches), space, assembly, supports and contact operator of ``case``
+    (``punches``: the case's punches already placed)."""
     timer = timer or Timer()
     with timer.stage("mesh"):
-        punches = place_punches(case.punches, case.shell)
+        if punches is None:
+            punches = place_punches(case.punches, case.shell)
         space = ShellSpace(case_mesh(case, punches))
     with timer.stage("assembly"):
         A = model.stiffness(space)
@@ -352,33 +417,42 @@ def discretize(case: Case, contact_points: str = "vertices", timer: Timer | None
 
 
 def solve(case: Case, method: str | None = None, backend: str | None = None,
-          warm_start: Result | None = None, progress: Callable[[int, dict], None] | None = None) -> Result:
+          warm_start: Result | None = None, progress: Callable[[int, dict], None] | None = None,
+          max_memory: float | str | None = None) -> Result:
     """Solve ``case``: the linear shell problem, or the contact problem when it has punches.
 
-    ``progress(iteration, residuals)`` is called after every contact-solver iteration.
+    ``progress(iteration, residuals)`` is called after every contact-solver iteration. Before anything
+    is built, the memory the case needs is estimated (``sizing``) and a case needing more than
+    ``max_memory`` (bytes, or a size such as ``"8G"``; default: the memory available) is refused
+    (InputError naming the mesh key).
     """
     opts = case.solver.with_method(method)
     if backend is not None:
         opts = dataclasses.replace(opts, backend=backend)
     timer = Timer()
-    d = discretize(case, opts.contact_points, timer)
+    with timer.stage("mesh"):
+        punches = place_punches(case.punches, case.shell)
+        check_size(case, punches, max_memory, opts.method, opts.backend)
+    d = discretize(case, opts.contact_points, timer, punches)
     space, A, F, red, op, punches = d.space, d.A, d.F, d.reduction, d.operator, d.punches
     info: dict[str, Any] = {"unknowns": int(d.Ar.shape[0])}
     if op is None:
         with timer.stage("factorization"):
             fac = factorize(d.Ar, opts.backend)
         info["backend"] = fac.backend
+        _check_finite("the load vector F", d.Fr)
         with timer.stage("solve"):
             U = red.expand(fac.solve(d.Fr))
+        _check_finite("the displacements U", U)
         timings = timer.total()
         sol = ShellSolution(space=space, U=U, A=A, F=F)
-        return Result(case=case, solution=sol, timings=timings, info=info, discretization=d)
+        return _checked(Result(case=case, solution=sol, timings=timings, info=info, discretization=d))
 
     start = warm_start
     if start is None and opts.nested and case.mesh.refine > 0:
         coarse = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, refine=case.mesh.refine - 1))
         with timer.stage("nested"):
-            start = solve(coarse, method=opts.method, backend=opts.backend)
+            start = solve(coarse, method=opts.method, backend=opts.backend, max_memory=max_memory)
         info["nested_iterations"] = [start.info.get("nested_iterations", []), start.contact.solution.iterations]
     initial_U_r = initial_active = None
     if start is not None:
@@ -404,9 +478,18 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     info["tolerance"] = opts.tolerance
     if not exact:
         info["penalty"] = eps
+        info["warnings"] = check_penalty(case, eps, opts.continuation)
+    _check_finite("the load vector F", d.Fr)
     with timer.stage("solve"):
         cs = _solve_contact(qp, opts, fac, initial_U_r, initial_active, eps, progress, screen)
     info["solver_timings"] = dict(cs.timings)
+    _check_finite("the displacements U", cs.U)
+    _check_finite("the contact forces Λ", cs.Lambda)
+    if cs.delta is not None:
+        _check_finite("the punch travels δ", cs.delta)
+        for j, k in enumerate(op.force_punches):  # the same linear-theory range as an indentation
+            check_linear_range(float(cs.delta[j]), case.shell, f"punch.{k}.force",
+                               f"the force {op.forces[j]:.4g} moves the punch past first contact by")
     with timer.stage("postprocess"):  # the gaps everywhere, penetration checks outside the rows
         U = red.expand(cs.U)
         Lam = np.asarray(cs.Lambda, float)
@@ -415,8 +498,40 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
                                 outside=penetration_outside(space, punches, U, cs.delta),
                                 between=_penetration_between(space, punches, opts.contact_points, U, cs.delta))
         sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam)
-    return Result(case=case, solution=sol, timings=timer.total(), info=info, contact=contact, punches=punches,
-                  discretization=d)
+    return _checked(Result(case=case, solution=sol, timings=timer.total(), info=info, contact=contact,
+                           punches=punches, discretization=d))
+
+
+def _check_finite(what: str, values: np.ndarray) -> None:
+    """SolverError (exit 3) naming ``what`` when it has a NaN or an infinity."""
+    bad = ~np.isfinite(values)
+    if bad.any():
+        raise SolverError(f"non-finite result: {what} has {int(bad.sum())} non-finite entries of {bad.size} "
+                          f"(first at index {int(np.argmax(bad))})")
+
+
+def non_finite(data: Any, path: str = "") -> list[str]:
+    """The paths (``contact.0.force``) of the NaNs and infinities in a JSON-like structure."""
+    if isinstance(data, float | np.floating):
+        return [] if math.isfinite(data) else [path or "(value)"]
+    if isinstance(data, dict):
+        return [p for k, v in data.items() for p in non_finite(v, f"{path}.{k}" if path else str(k))]
+    if isinstance(data, list | tuple):
+        return [p for i, v in enumerate(data) for p in non_finite(v, f"{path}.{i}" if path else str(i))]
+    if isinstance(data, np.ndarray) and data.dtype.kind == "f":
+        return [] if np.isfinite(data).all() else [path]
+    return []
+
+
+def _checked(result: Result) -> Result:
+    """The result, once its summary is finite (else SolverError naming the quantities); its warnings are
+    logged (stderr from the command line and, without logging set up, from Python)."""
+    bad = non_finite(result.summary())
+    if bad:
+        raise SolverError(f"non-finite result: {', '.join(bad[:8])}{' …' if len(bad) > 8 else ''}")
+    for w in result.warnings():
+        log.warning("warning: %s", w)
+    return result
 
 
 def _penetration_between(space: ShellSpace, punches: list[Punch], points: str, U: np.ndarray,

@@ -18,11 +18,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .errors import InputError
 from .geometry import Shell
 from .linalg import BACKENDS
 from .loads import LineLoad, Loads, PointLoad
-from .material import MATERIALS, Material
+from .material import MATERIALS, Material, check_stiffness_range
 from .mesh import PATTERNS, MeshSpec
 from .options import SolverOptions
 from .punches import PUNCH, SHAPES, ZONE, PunchSpec, parse_punches
@@ -31,6 +33,8 @@ from .solvers.methods import METHODS
 from .supports import SUPPORTS, Supports
 
 _NUMBER_OR_FUNCTION = "string `\"module:function\"`: a function t(x, phi) (NumPy, φ in radians)"
+#: the allowed column of every modulus (material.check_stiffness_range)
+_MODULUS = "> 0, with E·t and E·t³ in [1e-100, 1e100]"
 
 SHELL = Table("shell", (
     Key("radius", "number", "radius a of the middle surface", unit="length", lo=0.0, open=("lo",)),
@@ -44,7 +48,7 @@ SHELL = Table("shell", (
     Key("thickness", "number_or_function", "thickness t = 2e; a function is sampled on a 9 × 9 grid at load "
         "time", unit="length", lo=0.0, open=("lo",), allowed="0 < t < radius, or " + _NUMBER_OR_FUNCTION),
     Key("young", "number", "Young's modulus E of an isotropic shell (or `[material]`)", unit="force/length²",
-        lo=0.0, open=("lo",), default=None, default_doc="required without `[material]`"),
+        lo=0.0, open=("lo",), default=None, default_doc="required without `[material]`", allowed=_MODULUS),
     Key("poisson", "number", "Poisson's ratio μ of an isotropic shell (or `[material]`)", lo=-1.0, hi=0.5,
         open=("lo", "hi"), default=None, default_doc="required without `[material]`"),
 ))
@@ -52,15 +56,15 @@ SHELL = Table("shell", (
 MATERIAL = Table("material", (
     Key("model", "choice", "the material law (MODEL.md §3)", choices=tuple(MATERIALS), default="isotropic"),
     Key("young", "number", "isotropic: Young's modulus E", unit="force/length²", lo=0.0, open=("lo",),
-        default=None, default_doc="required (isotropic)"),
+        default=None, default_doc="required (isotropic)", allowed=_MODULUS),
     Key("poisson", "number", "isotropic: Poisson's ratio μ", lo=-1.0, hi=0.5, open=("lo", "hi"), default=None,
         default_doc="required (isotropic)"),
     Key("e1", "number", "orthotropic: modulus along the axis x", unit="force/length²", lo=0.0, open=("lo",),
-        default=None, default_doc="required (orthotropic)"),
+        default=None, default_doc="required (orthotropic)", allowed=_MODULUS),
     Key("e2", "number", "orthotropic: modulus along the circumference", unit="force/length²", lo=0.0,
-        open=("lo",), default=None, default_doc="required (orthotropic)"),
+        open=("lo",), default=None, default_doc="required (orthotropic)", allowed=_MODULUS),
     Key("g12", "number", "orthotropic: in-plane shear modulus", unit="force/length²", lo=0.0, open=("lo",),
-        default=None, default_doc="required (orthotropic)"),
+        default=None, default_doc="required (orthotropic)", allowed=_MODULUS),
     Key("nu12", "number", "orthotropic: Poisson's ratio ν12 (ν21 = ν12 E2/E1)", default=None,
         default_doc="required (orthotropic)", allowed="ν12² E2/E1 < 1"),
     Key("yield_stress", "number", "von Mises stress at which the material yields: the summary and fields.vtu "
@@ -138,7 +142,9 @@ SOLVER = Table("solver", (
         "penalised equation)", lo=0.0, hi=1.0, open=("lo", "hi"), default=SolverOptions.tolerance),
     Key("penalty", "number", "ε of the penalty method: springs of stiffness 1/ε per unit area; the penetration is "
         "ε × pressure. Used only by `\"penalty\"`", unit="length/pressure", lo=0.0, open=("lo",), default=None,
-        default_doc="1e-6 · a²/(E t) (orthotropic: E2 for E)"),
+        default_doc="1e-6 · a²/(E t) (orthotropic: E2 for E)",
+        allowed="> 0; with κ = ε·E t/a²: refused when κ + 2.2e-16/κ > 0.1, a warning above 1e-3 "
+        "([solvers.md](solvers.md#choosing-ε-penalty))"),
     Key("continuation", "numbers", "penalty values solved first, in order, each warm-starting the next, before "
         "`penalty`", unit="length/pressure", lo=0.0, open=("lo",), default=()),
     Key("max_iterations", "integer", "iteration limit; the solver then fails with its residuals", lo=1, default=None,
@@ -241,9 +247,16 @@ def parse_shell(d: Any, material: Any = None, material_values: dict[str, Any] | 
     alpha, beta = (0.0, 2.0 * math.pi) if full else v["angle"]
     if not full and not alpha < beta:
         raise InputError("shell.angle", f"needs alpha < beta, got [{math.degrees(alpha):g}, {math.degrees(beta):g}]")
-    return Shell(radius=v["radius"], length=v["length"], thickness=v["thickness"],
-                 material=parse_material(v, material, material_values), alpha=alpha, beta=beta, full=full,
-                 x_start=v["x_start"])
+    shell = Shell(radius=v["radius"], length=v["length"], thickness=v["thickness"],
+                  material=parse_material(v, material, material_values), alpha=alpha, beta=beta, full=full,
+                  x_start=v["x_start"])
+    t = shell.t(*np.meshgrid(np.linspace(shell.x_min, shell.x_max, 9), np.linspace(alpha, beta, 9)))
+    try:
+        check_stiffness_range(shell.material, float(t.min()), float(t.max()))
+    except InputError as exc:  # name the key the user wrote
+        field = exc.field if material is not None else exc.field.replace("material.", "shell.", 1)
+        raise InputError(field, exc.message) from None
+    return shell
 
 
 def parse_mesh(d: Any) -> MeshSpec:

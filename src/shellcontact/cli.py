@@ -83,7 +83,8 @@ def setup_logging(verbose: int, quiet: bool, log_file: str | None) -> None:
     log.propagate = False
     log.setLevel(logging.DEBUG)
     console = logging.StreamHandler(sys.stderr)
-    console.setLevel(logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)])
+    # warnings change what a result means: they reach stderr even with --quiet
+    console.setLevel(logging.WARNING if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)])
     console.setFormatter(logging.Formatter("%(message)s"))
     log.addHandler(console)
     if log_file:
@@ -147,14 +148,6 @@ def _print_summary(con: Console, s: dict) -> None:
         con.print("KKT residuals: " + "  ".join(f"{k} {v:.3e}" for k, v in kkt.items() if isinstance(v, float)))
 
 
-def warn(con: Console, warnings: list[str]) -> int:
-    """Every warning on stderr as ``warning: …`` (also with --quiet); returns how many."""
-    con.clear()
-    for w in warnings:
-        print(f"warning: {w}", file=sys.stderr, flush=True)
-    return len(warnings)
-
-
 def _closing(n_warnings: int) -> str:
     return f" ({n_warnings} warning{'s' * (n_warnings != 1)}, see above)" if n_warnings else ""
 
@@ -175,11 +168,11 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     with replace_dir(out, overwrite=args.force, owned=RUN_FILES, wait=args.wait) as stage:
         t0 = time.perf_counter()
         con.status("solving ...")
-        result = solve(case, progress=show if con.bar else None)
+        result = solve(case, progress=show if con.bar else None, max_memory=args.max_memory)
         con.clear()
         log.info("solved in %.3f s", time.perf_counter() - t0)
         summary = result.summary()
-        n_warnings = warn(con, summary["warnings"])
+        n_warnings = len(summary["warnings"])  # each already on stderr (analysis logs them as they arise)
         summary["case_file"] = str(args.case)
         if sets:
             summary["overrides"] = sets
@@ -214,13 +207,13 @@ def cmd_verify(args: argparse.Namespace, con: Console) -> int:
 def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
     from .studies import parse_values, sweep
 
-    values = parse_values(args.values)
+    values = parse_values(args.values, args.max_memory)
     if args.jobs < 1:
         raise InputError("--jobs", f"must be >= 1, got {args.jobs}")
     case, _ = _load(args)
     out = _output(args, "-sweep")
     res = sweep(case, args.param, values, out, overwrite=args.force, wait=args.wait, jobs=args.jobs,
-                progress=con.progress, figures=not args.no_figures)
+                progress=con.progress, figures=not args.no_figures, max_memory=args.max_memory)
     if res.reused:
         con.print(f"resumed: {res.reused} of {len(values)} steps were already done")
     con.print(res.csv().rstrip())
@@ -234,7 +227,7 @@ def cmd_convergence(args: argparse.Namespace, con: Console) -> int:
     case, _ = _load(args)
     out = _output(args, "-convergence")
     res = convergence(case, args.levels, out, overwrite=args.force, wait=args.wait, progress=con.progress,
-                      figures=not args.no_figures)
+                      figures=not args.no_figures, max_memory=args.max_memory)
     con.print(convergence_table(res))
     con.print(f"wrote {out}/: {', '.join(res.files)}")
     return EXIT_OK
@@ -292,6 +285,8 @@ def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
     )
     _output_args(p)
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    p.add_argument("--max-memory", metavar="SIZE", help="memory a solve may need, e.g. 8G or 512M (default: the "
+                   "memory available); a case estimated to need more is refused before anything is built")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -84,7 +84,8 @@ def _json_default(obj: Any) -> Any:
 
 
 def json_text(data: Any) -> str:
-    return json.dumps(data, indent=2, sort_keys=False, default=_json_default) + "\n"
+    """Strict JSON (RFC 8259): a NaN or an infinity is a ValueError, never written as ``NaN``."""
+    return json.dumps(data, indent=2, sort_keys=False, default=_json_default, allow_nan=False) + "\n"
 
 
 def write_json(path: str | Path, data: Any) -> None:

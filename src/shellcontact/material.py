@@ -37,6 +37,30 @@ def _positive(name: str, value: float) -> float:
     return float(value)
 
 
+#: the range of E·t and E·t³ (each modulus E, thickness t over the shell) in which the arithmetic means
+#: something. Stiffness entries, forces and energies are these times powers of the lengths, and the
+#: 2-norms and energies of the solvers square them: squares of numbers beyond 1e±154 leave the double
+#: range (1e±308). 1e±100 keeps a margin of 1e±54 for the geometry (h⁻⁴ of a fine mesh, radius, …)
+#: and covers every consistent unit system (steel: E·t = 2e9 N/m, E·t³ = 2e5 N·m in SI, 2e3 N/mm and
+#: 2e5 N·mm in mm).
+STIFFNESS_RANGE = (1e-100, 1e100)
+
+
+def check_stiffness_range(material: Material, t_min: float, t_max: float) -> None:
+    """Refuse a modulus whose membrane (E·t) or bending (E·t³) stiffness leaves ``STIFFNESS_RANGE``
+    for a thickness in [t_min, t_max]; the error names the modulus (``material.<name>``)."""
+    lo, hi = (math.log10(v) for v in STIFFNESS_RANGE)
+    for name, modulus in material.moduli().items():
+        logs = [math.log10(modulus) + k * math.log10(t) for k in (1, 3) for t in (t_min, t_max)]
+        if not all(lo <= v <= hi for v in logs):
+            raise InputError(
+                f"material.{name}",
+                f"{modulus:.6g} with the thickness {t_min:.6g}–{t_max:.6g} gives stiffnesses E·t and E·t³ "
+                f"between 1e{min(logs):.0f} and 1e{max(logs):.0f}; they must lie in [{STIFFNESS_RANGE[0]:g}, "
+                f"{STIFFNESS_RANGE[1]:g}] (their squares must stay inside floating point; choose other units)",
+            )
+
+
 def _times(matrix: np.ndarray, t) -> np.ndarray:
     """matrix (3, 3) times t (scalar or array): shape (3, 3) + shape(t)."""
     t = np.asarray(t, dtype=float)
@@ -53,6 +77,12 @@ class Material(ABC):
     @abstractmethod
     def plane_stress(self) -> np.ndarray:
         """Q (3 × 3) on (ε11, ε22, γ12): (σ11, σ22, σ12) = Q (ε11, ε22, γ12)."""
+
+    def moduli(self) -> dict[str, float]:
+        """The elastic moduli by their case-file key (checked by ``check_stiffness_range``)."""
+        return {k: float(getattr(self, k)) for k in self.modulus_keys}
+
+    modulus_keys: ClassVar[tuple[str, ...]]
 
     @property
     @abstractmethod
@@ -97,6 +127,7 @@ class Isotropic(Material):
     young: float
     poisson: float
     model: ClassVar[str] = "isotropic"
+    modulus_keys: ClassVar[tuple[str, ...]] = ("young",)
 
     def __post_init__(self) -> None:
         _positive("material.young", self.young)
@@ -145,6 +176,7 @@ class Orthotropic(Material):
     g12: float
     nu12: float
     model: ClassVar[str] = "orthotropic"
+    modulus_keys: ClassVar[tuple[str, ...]] = ("e1", "e2", "g12")
 
     def __post_init__(self) -> None:
         e1 = _positive("material.e1", self.e1)

@@ -254,15 +254,10 @@ def from_file(shell: Shell, path: str) -> ShellMesh:
     return ShellMesh(shell, MeshTri(np.ascontiguousarray(p, float), renumber[t]))
 
 
-def build_mesh(shell: Shell, spec: MeshSpec, lines_x: Sequence[float] = (), lines_phi: Sequence[float] = (),
-               focus_x: Sequence[float] = (), focus_phi: Sequence[float] = ()) -> ShellMesh:
-    """The mesh of ``spec``: structured (graded, with node lines at ``spec``'s and the given ``lines``) or read.
-
-    ``focus_x``/``focus_phi`` (e.g. a punch's first contact) are the grading foci when ``spec`` has a
-    grading ratio > 1 but no focus of its own. φ values are in radians.
-    """
-    if spec.file:
-        return from_file(shell, spec.file).refined(spec.refine)
+def node_lines(shell: Shell, spec: MeshSpec, lines_x: Sequence[float] = (), lines_phi: Sequence[float] = (),
+               focus_x: Sequence[float] = (), focus_phi: Sequence[float] = ()) -> tuple[np.ndarray, np.ndarray]:
+    """The node coordinates x and s = aφ of the structured mesh of ``spec`` before refinement
+    (``build_mesh``'s arguments): cheap, so ``sizing`` counts vertices without building anything."""
     req_x = [*spec.x_lines, *lines_x]
     req_phi = [*spec.phi_lines, *lines_phi]
     for name, vals, lo, hi in (("x", req_x, shell.x_min, shell.x_max), ("phi", req_phi, shell.alpha, shell.beta)):
@@ -278,4 +273,17 @@ def build_mesh(shell: Shell, spec: MeshSpec, lines_x: Sequence[float] = (), line
         gx, gphi = tuple(focus_x), tuple(focus_phi)
     xs = graded_nodes(shell.x_min, shell.x_max, spec.nx, gx, spec.grading_ratio, req_x)
     ss = shell.radius * graded_nodes(shell.alpha, shell.beta, spec.nphi, gphi, spec.grading_ratio, req_phi)
+    return xs, ss
+
+
+def build_mesh(shell: Shell, spec: MeshSpec, lines_x: Sequence[float] = (), lines_phi: Sequence[float] = (),
+               focus_x: Sequence[float] = (), focus_phi: Sequence[float] = ()) -> ShellMesh:
+    """The mesh of ``spec``: structured (graded, with node lines at ``spec``'s and the given ``lines``) or read.
+
+    ``focus_x``/``focus_phi`` (e.g. a punch's first contact) are the grading foci when ``spec`` has a
+    grading ratio > 1 but no focus of its own. φ values are in radians.
+    """
+    if spec.file:
+        return from_file(shell, spec.file).refined(spec.refine)
+    xs, ss = node_lines(shell, spec, lines_x, lines_phi, focus_x, focus_phi)
     return structured(shell, len(xs) - 1, len(ss) - 1, spec.pattern, x_nodes=xs, s_nodes=ss).refined(spec.refine)

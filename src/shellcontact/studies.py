@@ -45,26 +45,36 @@ CONTACT_COLUMNS = (
 
 
 # -- values ----------------------------------------------------------------------------------------------
-def parse_values(spec: str) -> list[float]:
-    """``'0:5e-3:11'`` (start:stop:count, both ends included) or ``'1e-3,2e-3,4e-3'``."""
+def parse_values(spec: str, max_memory: float | str | None = None) -> list[float]:
+    """``'0:5e-3:11'`` (start:stop:count, both ends included) or ``'1e-3,2e-3,4e-3'``. A count
+    whose steps cannot be recorded in ``max_memory`` (default: the memory available) is refused
+    before any list is built (``sizing.check_steps``)."""
+    from .sizing import check_steps
+
     where = "--values"
     text = spec.strip()
-    try:
-        if ":" in text:
-            parts = text.split(":")
+    usage = f"expected start:stop:count (e.g. 0:5e-3:11) or a comma list (e.g. 1e-3,2e-3), got {spec!r}"
+    if ":" in text:
+        parts = text.split(":")
+        try:
             if len(parts) != 3:
                 raise ValueError
             start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
-            if count < 1:
-                raise InputError(where, f"count must be >= 1, got {count}")
-            if count == 1:
-                return [start]
-            return [start + (stop - start) * i / (count - 1) for i in range(count)]
+        except ValueError:
+            raise InputError(where, usage) from None
+        if count < 1:
+            raise InputError(where, f"count must be >= 1, got {count}")
+        check_steps(count, max_memory)  # before the list is built
+        if not (math.isfinite(start) and math.isfinite(stop)):
+            raise InputError(where, f"values must be finite, got {spec!r}")
+        if count == 1:
+            return [start]
+        return [start + (stop - start) * i / (count - 1) for i in range(count)]
+    check_steps(text.count(",") + 1, max_memory)
+    try:
         vals = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
-        raise InputError(
-            where, f"expected start:stop:count (e.g. 0:5e-3:11) or a comma list (e.g. 1e-3,2e-3), got {spec!r}"
-        ) from None
+        raise InputError(where, usage) from None
     if not vals:
         raise InputError(where, "no values given")
     if not all(math.isfinite(v) for v in vals):
@@ -175,10 +185,10 @@ def _load_record(steps: Path, index: int, fingerprint: str) -> dict[str, Any] | 
     return rec if rec.get("fingerprint") == fingerprint and "row" in rec else None
 
 
-def _solve_summary(case: Case):
+def _solve_summary(case: Case, max_memory: float | str | None = None):
     from .analysis import solve
 
-    result = solve(case)
+    result = solve(case, max_memory=max_memory)
     return result, result.summary()
 
 
@@ -187,14 +197,14 @@ def _step_row(param: str, value: Any, summary: dict[str, Any]) -> dict[str, Any]
 
 
 def _solve_step(raw: dict, source: str | None, param: str, index: int, value: Any, steps: str | None, fp: str,
-                case: Case | None = None):
+                case: Case | None = None, max_memory: float | str | None = None):
     """One sweep step, recorded in ``steps/`` when given (in a worker the case is re-validated from ``raw``).
 
     Every step starts from its own case alone (no warm start from a neighbour), so a step's numbers
     do not depend on the order, on ``jobs`` or on an interruption: a resumed sweep writes the CSV an
     uninterrupted one would.
     """
-    _, summary = _solve_summary(case if case is not None else case_from_dict(raw, source=source))
+    _, summary = _solve_summary(case if case is not None else case_from_dict(raw, source=source), max_memory)
     row = _step_row(param, value, summary)
     if steps is not None:
         write_json(
@@ -240,6 +250,7 @@ def _run_steps(
     steps: Path | None,
     jobs: int,
     progress: Progress | None,
+    max_memory: float | str | None = None,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], int]:
     """Solve the steps without a record in ``steps`` (serially or in ``jobs`` processes)."""
     n = len(vals)
@@ -275,7 +286,8 @@ def _run_steps(
         pool = ProcessPoolExecutor(max_workers=min(jobs, len(todo)), mp_context=get_context("spawn"),
                                    initializer=_worker_init, initargs=(os.getpid(),))
         try:
-            futs = [pool.submit(_solve_step, steps_in[i][0], source, param, i, vals[i], where, fps[i]) for i in todo]
+            futs = [pool.submit(_solve_step, steps_in[i][0], source, param, i, vals[i], where, fps[i], None, max_memory)
+                    for i in todo]
             for fut in as_completed(futs):
                 finished(*fut.result())
         except BaseException:  # Ctrl-C, SIGTERM, a failed step: stop at once
@@ -284,7 +296,7 @@ def _run_steps(
         pool.shutdown()
     else:
         for i in todo:
-            finished(*_solve_step(steps_in[i][0], source, param, i, vals[i], where, fps[i], steps_in[i][1]))
+            finished(*_solve_step(steps_in[i][0], source, param, i, vals[i], where, fps[i], steps_in[i][1], max_memory))
     return rows, sums, reused  # type: ignore[return-value]
 
 
@@ -308,6 +320,7 @@ def sweep(
     jobs: int = 1,
     progress: Progress | None = None,
     figures: bool = True,
+    max_memory: float | str | None = None,
 ) -> SweepResult:
     """Solve ``case`` for each value of the case-file key ``param`` (dotted path) in order.
 
@@ -318,18 +331,21 @@ def sweep(
     ``report.html``, which appear together. A non-empty directory that does not hold this sweep is
     refused unless ``overwrite``; then the new sweep is staged beside it and replaces it only when
     complete (the previous result is kept until then; an interrupted ``overwrite`` sweep starts over).
+    ``max_memory`` bounds every step's solve (``analysis.solve``) and the steps' records.
     """
+    from .sizing import check_steps
     from .transaction import DirectoryLock, Staging, name_in_target, remove_stale
 
     split_path(param)
     if not values:
         raise InputError("--values", "no values given")
+    check_steps(len(values), max_memory)
     vals = [_value(v) for v in values]
     source = str(case.source) if case.source is not None else None
     steps_in = _step_cases(case, param, vals, source)
     fps = [_fingerprint(raw, source) for raw, _ in steps_in]
     if output_dir is None:
-        rows, sums, reused = _run_steps(param, vals, steps_in, source, fps, None, jobs, progress)
+        rows, sums, reused = _run_steps(param, vals, steps_in, source, fps, None, jobs, progress, max_memory)
         return SweepResult(param, [float(v) for v in vals], rows, sums, reused)
 
     target = Path(output_dir)
@@ -351,7 +367,8 @@ def sweep(
         try:
             work.mkdir(parents=True, exist_ok=True)
             write_json(work / "sweep.json", manifest)
-            rows, sums, reused = _run_steps(param, vals, steps_in, source, fps, work / "steps", jobs, progress)
+            rows, sums, reused = _run_steps(param, vals, steps_in, source, fps, work / "steps", jobs, progress,
+                                            max_memory)
             res = SweepResult(param, [float(v) for v in vals], rows, sums, reused)
             if stage is None:
                 stage = Staging(target)  # the final files appear together beside the step records
@@ -440,6 +457,7 @@ def convergence(
     wait: bool = False,
     progress: Progress | None = None,
     figures: bool = True,
+    max_memory: float | str | None = None,
 ) -> ConvergenceResult:
     """Nested refinement study: level l solves with ``mesh.refine = r0 + l`` (r0 = the case's refine).
 
@@ -451,18 +469,19 @@ def convergence(
     """
     if not isinstance(levels, int) or levels < 2:
         raise InputError("--levels", f"must be an integer >= 2, got {levels!r}")
+    _check_finest(case, case.mesh.refine + levels - 1, max_memory)
     if output_dir is None:
-        return _convergence(case, levels, None, progress, figures)
+        return _convergence(case, levels, None, progress, figures, max_memory)
     from .transaction import replace_dir
 
     with replace_dir(output_dir, overwrite=overwrite, owned=CONVERGENCE_FILES, wait=wait) as stage:
-        res = _convergence(case, levels, stage, progress, figures)
+        res = _convergence(case, levels, stage, progress, figures, max_memory)
     res.files = {name: Path(output_dir) / name for name in res.files}
     return res
 
 
 def _convergence(case: Case, levels: int, out: Path | None, progress: Progress | None,
-                 figures: bool) -> ConvergenceResult:
+                 figures: bool, max_memory: float | str | None = None) -> ConvergenceResult:
     r0 = case.mesh.refine
     rows, sums = [], []
     qname = None
@@ -470,7 +489,7 @@ def _convergence(case: Case, levels: int, out: Path | None, progress: Progress |
         if progress:
             progress(lv, levels, f"level {lv} (refine {r0 + lv})")
         c = case_from_dict(apply_overrides(case.raw, {"mesh.refine": r0 + lv}), source=case.source)
-        result, summary = _solve_summary(c)
+        result, summary = _solve_summary(c, max_memory)
         name, q = _quantity(summary)
         qname = qname or name
         if name != qname:
@@ -534,6 +553,21 @@ def _convergence(case: Case, levels: int, out: Path | None, progress: Progress |
             case.raw,
         )
     return res
+
+
+def _check_finest(case: Case, refine: int, max_memory: float | str | None) -> None:
+    """Refuse a convergence study whose finest level cannot fit, before the first level is solved."""
+    import dataclasses
+
+    from .punches import place_punches
+    from .sizing import check_size
+
+    finest = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, refine=refine))
+    try:
+        check_size(finest, place_punches(case.punches, case.shell), max_memory,
+                   what=f"the finest level (refine {refine})")
+    except InputError as exc:
+        raise InputError("--levels", f"{exc.message} (or fewer --levels)") from None
 
 
 def convergence_table(res: ConvergenceResult) -> str:

@@ -10,7 +10,7 @@ Modules: ``shapes`` (implicit surfaces Z and the shape registry ``SHAPES``), ``s
 the automatic zone), ``placement`` (first contact, indentation/force placement, checks).
 """
 
-from .placement import Punch, fitted_lines, focus_lines, place, place_punches, punch_from_dict
+from .placement import Punch, check_linear_range, fitted_lines, focus_lines, place, place_punches, punch_from_dict
 from .shapes import SHAPES, Custom, Cylinder, Ellipsoid, Plane, ShapeType, Sphere, Torus, register
 from .spec import PUNCH, ZONE, PunchSpec, parse_punch, parse_punches
 from .zones import Zone, contact_surface, surface_minimum
@@ -29,6 +29,7 @@ __all__ = [
     "Sphere",
     "Torus",
     "Zone",
+    "check_linear_range",
     "contact_surface",
     "fitted_lines",
     "focus_lines",

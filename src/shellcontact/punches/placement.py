@@ -228,6 +228,26 @@ def _polish_minimum(punch: Punch, shell: Shell, x: float, phi: float, width: flo
     return float(punch.Z(M)[0][0]), c[0], c[1]
 
 
+def check_linear_range(depth: float, shell: Shell, key: str, what: str) -> None:
+    """Refuse a depth (an overlap, or a force-controlled punch's travel) beyond linear shell theory:
+    more than ``OVERLAP_RADIUS_FRACTION`` × radius or ``OVERLAP_THICKNESSES`` thicknesses."""
+    tmax = float(
+        np.max(shell.t(np.linspace(shell.x_min, shell.x_max, 9)[:, None], np.linspace(shell.alpha, shell.beta, 9)))
+    )
+    if depth > OVERLAP_RADIUS_FRACTION * shell.radius:
+        raise InputError(
+            key,
+            f"{what} {depth:.4g}, more than {OVERLAP_RADIUS_FRACTION} x radius = "
+            f"{OVERLAP_RADIUS_FRACTION * shell.radius:.4g}: far beyond a linear shell",
+        )
+    if depth > OVERLAP_THICKNESSES * tmax:
+        raise InputError(
+            key,
+            f"{what} {depth:.4g}, more than {OVERLAP_THICKNESSES:g} thicknesses ({OVERLAP_THICKNESSES * tmax:.4g}): "
+            "far beyond a linear shell",
+        )
+
+
 def place(spec: PunchSpec, shell: Shell) -> Punch:
     """The punch of ``spec`` at its final position on ``shell`` (see the module docstring)."""
     where, body, mode = spec.where, spec.body, spec.mode
@@ -271,24 +291,8 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
         zmin, xm, pm = zp, xp, pp
     punch.min_gap, punch.first_contact = zmin, (xm, pm)
     punch.overlap = max(0.0, -zmin)
-    # overlap larger than the shell can take
-    tmax = float(
-        np.max(shell.t(np.linspace(shell.x_min, shell.x_max, 9)[:, None], np.linspace(shell.alpha, shell.beta, 9)))
-    )
-    key = f"{where}.indentation" if mode == "indentation" else where
-    if punch.overlap > OVERLAP_RADIUS_FRACTION * shell.radius:
-        raise InputError(
-            key,
-            f"the punch overlaps the undeformed shell by {punch.overlap:.4g}, more than "
-            f"{OVERLAP_RADIUS_FRACTION} x radius = {OVERLAP_RADIUS_FRACTION * shell.radius:.4g}: "
-            "far beyond a linear shell",
-        )
-    if punch.overlap > OVERLAP_THICKNESSES * tmax:
-        raise InputError(
-            key,
-            f"the punch overlaps the undeformed shell by {punch.overlap:.4g}, more than {OVERLAP_THICKNESSES:g} "
-            f"thicknesses ({OVERLAP_THICKNESSES * tmax:.4g}): far beyond a linear shell",
-        )
+    check_linear_range(punch.overlap, shell, f"{where}.indentation" if mode == "indentation" else where,
+                       "the punch overlaps the undeformed shell by")
     gap = spec.zone_gap if spec.zone_gap is not None else max(
         ZONE_OVERLAP_FACTOR * punch.overlap, ZONE_SIZE_FRACTION * size)
     zone = given or automatic_zone(lambda M: punch.Z(M)[0], shell, punch.side_sign, gap, punch.first_contact, zmin)

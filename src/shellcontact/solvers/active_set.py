@@ -85,7 +85,8 @@ def solve_active_set(
     if initial_active is not None:
         I = as_mask(initial_active, qp.m) & live
     elif initial_U is not None:
-        I = (qp.gap(np.asarray(initial_U, dtype=float)) <= 1e-6 * ws.lscale) & live
+        g0 = qp.gap(np.asarray(initial_U, dtype=float))
+        I = (g0 <= 1e-6 * ws.length_scale(g0)) & live
     else:
         I = violated(ws.c0, np.zeros(qp.m, dtype=bool))
     if k:
@@ -103,7 +104,7 @@ def solve_active_set(
         g = ws.gap(lam, delta)
         lam_scale = max(float(np.abs(lam).max(initial=0.0)), 1e-300)
         v_lam = max(0.0, -float(x.min(initial=0.0))) / lam_scale
-        v_gap = max(0.0, -float(g[live & ~I].min(initial=0.0))) / ws.lscale
+        v_gap = max(0.0, -float(g[live & ~I].min(initial=0.0))) / ws.length_scale(g)
         I_new = (I & (lam > 0)) | violated(g, I)
         if k:
             I_new = ws.first_contact(I_new, g)

@@ -25,7 +25,7 @@ Convergence: every step decreases the dual energy strictly unless Λ is optimal;
 step ends at the minimiser of the energy on a face, and as those values strictly decrease no
 face can recur: finite termination, as in Lawson–Hanson's NNLS, but with all bounds with
 negative gap released at once. No h⁻² iteration growth from unpreconditioned CG. Stops when
-max|φ| and max|β| ≤ tol·(length scale), then the common KKT check on a freshly solved U.
+max|φ| and max|β| ≤ tol·(length scale: ``Workspace.length_scale``), then the common KKT check on a freshly solved U.
 
 Force control (DᵀΛ = −P): SMALBE-type augmented Lagrangian (Dostál): the inner bound QP uses
 S + ρDDᵀ and linear term −h + D(δ + ρP), whose gradient is the gap at δ + ρ(DᵀΛ + P); after each
@@ -86,7 +86,7 @@ def bound_qp(
     x0: np.ndarray,
     c: np.ndarray,
     cols: Callable[[np.ndarray], np.ndarray],
-    tol_g: float,
+    tol: float,
     max_iterations: int,
     history: list,
     gamma: float = 1.0,
@@ -94,7 +94,9 @@ def bound_qp(
     growth: float = 0.9,
 ) -> tuple[np.ndarray, int, bool]:
     """Minimise ½xᵀHx + cᵀx over x ≥ 0 (rows not ``ws.live`` stay 0), H[:, J] = cols(J), by
-    MPRGP with exact face solves (module docstring). Returns x, iterations, converged."""
+    MPRGP with exact face solves (module docstring). Stops when the free and chopped gradients
+    (gaps) are ≤ tol times the length scale at the current gaps (``Workspace.length_scale``).
+    Returns x, iterations, converged."""
     live = ws.live
     x = np.where(live, np.maximum(x0, 0.0), 0.0)
 
@@ -111,6 +113,7 @@ def bound_qp(
         phi = np.where(F, g, 0.0)
         beta = np.where(~F & live, np.minimum(g, 0.0), 0.0)
         nphi, nbeta = float(np.abs(phi).max(initial=0.0)), float(np.abs(beta).max(initial=0.0))
+        tol_g = tol * ws.length_scale(g)
         if nphi <= tol_g and nbeta <= tol_g:
             return x, it - 1, True
         rec = {"iteration": it0 + it, "free": int(F.sum()), "phi": nphi, "beta": nbeta}
@@ -145,7 +148,7 @@ def bound_qp(
         history.append(rec)
     F = x > 0
     ok = max(np.abs(np.where(F, g, 0.0)).max(initial=0.0), np.abs(np.where(~F & live, np.minimum(g, 0.0), 0.0)).max(
-        initial=0.0)) <= tol_g
+        initial=0.0)) <= tol * ws.length_scale(g)
     return x, max_iterations, ok
 
 
@@ -162,9 +165,8 @@ def dual_core(
 ) -> tuple[np.ndarray, np.ndarray | None, int]:
     """Solve the dual from Λ0 ≥ 0; returns Λ, δ, iterations (raises SolverError on failure)."""
     qp = ws.qp
-    tol_g = tol * ws.lscale
     if qp.k == 0:
-        lam, its, ok = bound_qp(ws, lam0, ws.c0, ws.columns, tol_g, max_iterations, history, gamma, it0, growth)
+        lam, its, ok = bound_qp(ws, lam0, ws.c0, ws.columns, tol, max_iterations, history, gamma, it0, growth)
         if not ok:
             raise SolverError(
                 f"dual: MPRGP did not reach the tolerance {tol:g}",
@@ -190,7 +192,7 @@ def dual_core(
 
     for outer in range(1, 51):
         c = ws.c0 + D @ (delta + rho * P)
-        lam, its, ok = bound_qp(ws, lam, c, cols, tol_g, max_iterations - total, history, gamma, it0 + total,
+        lam, its, ok = bound_qp(ws, lam, c, cols, tol, max_iterations - total, history, gamma, it0 + total,
                                 growth)
         total += its
         if not ok:
@@ -204,7 +206,7 @@ def dual_core(
                 trial = np.zeros(qp.m)
                 trial[idx] = x
                 gtr = ws.gap(trial, d)
-                if gtr[ws.live].min(initial=0.0) >= -tol_g:
+                if gtr[ws.live].min(initial=0.0) >= -tol * ws.length_scale(gtr):
                     history.append({"iteration": it0 + total, "outer": outer, "step": "polish", "free": int(idx.size)})
                     return trial, d, total
         fb = np.linalg.norm(D.T @ lam + P) / max(np.linalg.norm(P), 1e-300)

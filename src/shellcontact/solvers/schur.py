@@ -26,7 +26,7 @@ import scipy.linalg as sla
 from ..errors import SolverError
 from ..linalg import Factorization, SchurComplement, factorize
 from ..linalg.sparse import same_entries
-from .kkt import TINY, KKTReport, evaluate
+from .kkt import KKTReport, evaluate, length_scale
 from .qp import ContactQP, ContactSolution, check_feasibility
 from .substructure import factorize_contact
 
@@ -87,8 +87,9 @@ class Workspace:
         self._store = np.empty((m, min(m, 16)))
         self._ncol = 0
         self._pos = np.full(m, -1, dtype=np.int64)
-        gmax = float(np.abs(qp.G).max()) if m else 0.0
-        self.lscale = max(gmax, float(np.abs(self.BU0).max()) if m else 0.0, TINY)
+        #: the length scale before contact (``kkt.length_scale`` at Λ = 0): the largest prescribed
+        #: overlap and the largest displacement of a constraint point under the load alone
+        self.lscale = length_scale(qp, self.c0)
 
     # -- linear algebra -------------------------------------------------------------------
     def solve(self, b: np.ndarray) -> np.ndarray:
@@ -218,6 +219,12 @@ class Workspace:
         """Diagonal entries S_ii of the columns computed so far."""
         idx = np.flatnonzero(self._pos >= 0)
         return self._store[idx, self._pos[idx]]
+
+    def length_scale(self, g: np.ndarray) -> float:
+        """``kkt.length_scale`` at the gaps g (≥ the scale before contact): the scale of the
+        penetration in the solvers' stopping tests; it grows with the contact displacement (under
+        force control it starts near 0: the punch just touches and the travel is unknown)."""
+        return max(self.lscale, float(np.abs(g - self.qp.G).max(initial=0.0)))
 
     @property
     def n_columns(self) -> int:
