@@ -111,13 +111,9 @@ def parse_memory(value: str | float | int, where: str = "--max-memory") -> float
 def available_memory() -> float:
     """MemAvailable of /proc/meminfo (bytes the kernel can give without swapping); the physical
     memory where there is no /proc; infinity if neither is known."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return float(line.split()[1]) * 1024.0
-    except OSError:
-        pass
+    available = _proc_bytes("/proc/meminfo", "MemAvailable:")
+    if available is not None:
+        return available
     try:
         return float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
     except (ValueError, OSError, AttributeError):
@@ -259,14 +255,20 @@ def _key(case) -> str:
 def resident_memory() -> float:
     """The process's resident set now (VmRSS of /proc/self/status; 0 where unknown): memory the
     estimate counts (``BASE_BYTES``, earlier arrays) that is not asked of the machine again."""
+    rss = _proc_bytes("/proc/self/status", "VmRSS:")
+    return 0.0 if rss is None else rss
+
+
+def _proc_bytes(path: str, key: str) -> float | None:
+    """The ``key: N kB`` line of a /proc file in bytes (None where there is no such file or line)."""
     try:
-        with open("/proc/self/status") as fh:
+        with open(path) as fh:
             for line in fh:
-                if line.startswith("VmRSS:"):
+                if line.startswith(key):
                     return float(line.split()[1]) * 1024.0
     except OSError:
         pass
-    return 0.0
+    return None
 
 
 def check_size(case, punches: Sequence = (), max_memory: float | str | None = None, method: str | None = None,
