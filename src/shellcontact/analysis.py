@@ -28,7 +28,7 @@ import scipy.sparse as sp
 
 from . import model
 from .case import Case
-from .contact import ContactOperator, contact_operator, penetration_outside
+from .contact import ContactOperator, contact_operator, contact_zone, penetration_outside
 from .errors import InputError, SolverError
 from .linalg import factorize
 from .loads import load_vector
@@ -145,6 +145,7 @@ class ContactResult:
     delta: np.ndarray | None  # force-control travel
     outside: np.ndarray  # per punch: largest penetration at vertices outside its candidate zone
     between: np.ndarray  # per punch: largest penetration at edge midpoints between constraint points
+    zone: list[dict] = field(default_factory=list)  # per punch: where it touches (contact.contact_zone)
 
     @property
     def pressure(self) -> np.ndarray:
@@ -152,9 +153,10 @@ class ContactResult:
 
     def summary(self) -> list[dict]:
         out = self.operator.summary(self.Lambda, self.active, self.delta)
-        for entry, pen, mid in zip(out, self.outside, self.between):
+        for entry, pen, mid, zone in zip(out, self.outside, self.between, self.zone):
             entry["penetration_outside_zone"] = float(pen)
             entry["penetration_between_points"] = float(mid)
+            entry["zone"] = zone
         return out
 
     def warnings(self) -> list[str]:
@@ -496,7 +498,8 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
         contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
                                 gap=op.gap(U, cs.delta), delta=cs.delta,
                                 outside=penetration_outside(space, punches, U, cs.delta),
-                                between=_penetration_between(space, punches, opts.contact_points, U, cs.delta))
+                                between=_penetration_between(space, punches, opts.contact_points, U, cs.delta),
+                                zone=contact_zone(space, punches, U, cs.delta))
         sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam)
     return _checked(Result(case=case, solution=sol, timings=timer.total(), info=info, contact=contact,
                            punches=punches, discretization=d))
