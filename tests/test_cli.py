@@ -243,3 +243,20 @@ def test_warnings_reach_stderr_the_closing_line_and_the_top_of_the_report(tmp_pa
     r = cli("run", CASE, *SMALL, "--no-figures", "-o", "plain", cwd=tmp_path)
     assert "warning" not in r.stderr and "warning" not in r.stdout
     assert 'class="warnings"' not in (tmp_path / "plain" / "report.html").read_text()
+
+
+def test_sweep_prints_a_table_and_progress_lines_without_float_noise(tmp_path: Path) -> None:
+    """Off a terminal, a sweep logs one progress line per step on stderr, prints an aligned table (6
+    significant digits) on stdout, and its values carry no float noise (0.22, not 0.22000000000000003)."""
+    r = cli("sweep", CASE, *SMALL, "--param", "shell.thickness", "--values", "0.2:0.3:6", "--no-figures",
+            "-o", "sw", cwd=tmp_path)
+    assert [ln for ln in r.stderr.splitlines() if ln.startswith("[")] == [
+        f"[{i}/6] shell.thickness = {v:g}" for i, v in enumerate((0.2, 0.22, 0.24, 0.26, 0.28, 0.3), 1)]
+    table = [ln for ln in r.stdout.splitlines() if ln.strip() and not ln.startswith("wrote")]
+    assert table[0].split()[:2] == ["shell.thickness", "dofs"] and len(table) == 7
+    assert len({len(ln) for ln in table}) == 1  # aligned columns
+    csv = (tmp_path / "sw" / "sweep.csv").read_text().splitlines()
+    assert [ln.split(",")[0] for ln in csv[1:]] == ["0.2", "0.22", "0.24", "0.26", "0.28", "0.3"]
+    q = cli("sweep", CASE, *SMALL, "--param", "shell.thickness", "--values", "0.2:0.3:2", "--no-figures",
+            "-o", "sq", "--quiet", cwd=tmp_path)
+    assert q.stdout == "" and not any(ln.startswith("[") for ln in q.stderr.splitlines())

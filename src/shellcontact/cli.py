@@ -52,8 +52,11 @@ class Console:
             print(*args, flush=True)
 
     def progress(self, done: int, total: int, message: str = "") -> None:
-        """Draw ``[####....] done/total message`` in place (terminals only)."""
+        """Draw ``[####....] done/total message`` in place on a terminal; elsewhere (a log, a pipe) one
+        line ``[done/total] message`` per step on stderr, unless quiet."""
         if not self.bar:
+            if not self.quiet and done:
+                print(f"[{done}/{total}] {message}", file=self.stream, flush=True)
             return
         width = 30
         fill = int(width * done / total) if total else width
@@ -205,7 +208,7 @@ def cmd_verify(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
-    from .studies import parse_values, sweep
+    from .studies import parse_values, sweep, sweep_table
 
     values = parse_values(args.values, args.max_memory)
     if args.jobs < 1:
@@ -216,7 +219,7 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
                 progress=con.progress, figures=not args.no_figures, max_memory=args.max_memory)
     if res.reused:
         con.print(f"resumed: {res.reused} of {len(values)} steps were already done")
-    con.print(res.csv().rstrip())
+    con.print(sweep_table(res))
     con.print(f"wrote {out}/: {', '.join(res.files)}")
     return EXIT_OK
 

@@ -69,7 +69,8 @@ def parse_values(spec: str, max_memory: float | str | None = None) -> list[float
             raise InputError(where, f"values must be finite, got {spec!r}")
         if count == 1:
             return [start]
-        return [start + (stop - start) * i / (count - 1) for i in range(count)]
+        # to 12 significant digits: 0.006, not the 0.006000000000000001 of the arithmetic
+        return [float(f"{start + (stop - start) * i / (count - 1):.12g}") for i in range(count)]
     check_steps(text.count(",") + 1, max_memory)
     try:
         vals = [float(v) for v in text.split(",") if v.strip()]
@@ -570,27 +571,30 @@ def _check_finest(case: Case, refine: int, max_memory: float | str | None) -> No
         raise InputError("--levels", f"{exc.message} (or fewer --levels)") from None
 
 
-def convergence_table(res: ConvergenceResult) -> str:
-    """A fixed-width text table of a convergence study."""
-    q = res.quantity
-    head = ("level", "dofs", "h", "energy", q, "err energy", "rate", f"err {q}", "rate")
-    widths = [max(12, len(h)) for h in head]
-    lines = ["  ".join(f"{h:>{w}}" for h, w in zip(head, widths))]
+def text_table(head: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    """A fixed-width text table for the console: numbers to 6 significant digits, None as —."""
 
     def f(v: Any) -> str:
         return "—" if v is None else (f"{v:.6g}" if isinstance(v, float) else str(v))
 
-    for r in res.rows:
-        vals = (
-            r["level"],
-            r["dofs"],
-            r["h"],
-            r["energy"],
-            r[q],
-            r["error_energy"],
-            r["rate_energy"],
-            r[f"error_{q}"],
-            r[f"rate_{q}"],
-        )
-        lines.append("  ".join(f"{f(v):>{w}}" for v, w in zip(vals, widths)))
+    cells = [[f(v) for v in r] for r in rows]
+    widths = [max(len(h), *(len(c[i]) for c in cells)) if cells else len(h) for i, h in enumerate(head)]
+    lines = ["  ".join(f"{h:>{w}}" for h, w in zip(head, widths))]
+    lines += ["  ".join(f"{c:>{w}}" for c, w in zip(r, widths)) for r in cells]
     return "\n".join(lines)
+
+
+def convergence_table(res: ConvergenceResult) -> str:
+    """A fixed-width text table of a convergence study."""
+    q = res.quantity
+    head = ("level", "dofs", "h", "energy", q, "err energy", "rate", f"err {q}", "rate")
+    keys = ("level", "dofs", "h", "energy", q, "error_energy", "rate_energy", f"error_{q}", f"rate_{q}")
+    return text_table(head, [[r[k] for k in keys] for r in res.rows])
+
+
+def sweep_table(res: SweepResult) -> str:
+    """A fixed-width text table of a sweep (every column of its CSV; the CSV keeps full precision)."""
+    cols: list[str] = []
+    for r in res.rows:
+        cols += [c for c in r if c not in cols]
+    return text_table(cols, [[r.get(c) for c in cols] for r in res.rows])
