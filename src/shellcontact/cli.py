@@ -17,9 +17,11 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import os
 import sys
 import time
+import traceback
 from pathlib import Path
 
 from . import __version__
@@ -111,6 +113,15 @@ def _load(args: argparse.Namespace):
     return case, sets
 
 
+def _check_profiles(args: argparse.Namespace, shell) -> None:
+    """--profile-x / --profile-phi must lie on the shell (the profile is the mesh line nearest them)."""
+    ranges = {"--profile-x": (args.profile_x, shell.x_min, shell.x_max),
+              "--profile-phi": (args.profile_phi, math.degrees(shell.alpha), math.degrees(shell.beta))}
+    for name, (v, lo, hi) in ranges.items():
+        if v is not None and not lo <= v <= hi:
+            raise InputError(name, f"must lie on the shell, in [{lo:.6g}, {hi:.6g}], got {v:g}")
+
+
 def _default_dir(case_path: str, suffix: str) -> Path:
     return Path(f"{Path(case_path).stem}{suffix}")
 
@@ -140,6 +151,7 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     from .outputs import clear_run_files, write_outputs
 
     case, sets = _load(args)
+    _check_profiles(args, case.shell)
     out = Path(args.output) if args.output else _default_dir(args.case, "-out")
     check_output_dir(out, args.force)
     if args.force and out.is_dir():
@@ -241,6 +253,23 @@ def cmd_info(args: argparse.Namespace, con: Console) -> int:
 
 
 # -- parser ----------------------------------------------------------------------------------------------
+def _directory(text: str) -> str:
+    """An -o/--output value: a directory name (an empty one would silently mean the default, or '.')."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must name a directory, got an empty string")
+    return text
+
+
+def _finite(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return v
+
+
 def _common(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("output control")
     g.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
@@ -250,7 +279,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
     p.add_argument("case", help="TOML case file (keys: docs/case-file.md)")
-    p.add_argument("-o", "--output", metavar="DIR", help=out_help)
+    p.add_argument("-o", "--output", type=_directory, metavar="DIR", help=out_help)
     p.add_argument("--method", choices=tuple(METHODS), help="contact solver; same as --set solver.method=...")
     p.add_argument(
         "--set",
@@ -277,9 +306,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _case_args(r, "output directory (default: <case name>-out)")
     r.add_argument("--no-report", action="store_true", help="skip report.html")
-    r.add_argument("--profile-x", type=float, metavar="X", help="pressure profile along the mesh line nearest x = X")
+    r.add_argument("--profile-x", type=_finite, metavar="X", help="pressure profile along the mesh line nearest x = X")
     r.add_argument(
-        "--profile-phi", type=float, metavar="DEG", help="pressure profile along the mesh line nearest phi = DEG"
+        "--profile-phi", type=_finite, metavar="DEG", help="pressure profile along the mesh line nearest phi = DEG"
     )
     _common(r)
     r.set_defaults(func=cmd_run)
@@ -289,7 +318,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="A clamped cylindrical panel pressed by a spherical punch, solved by the "
         "penalty, active-set and dual methods; prints a table and writes DIR.",
     )
-    d.add_argument("-o", "--output", metavar="DIR", default="demo-out", help="output directory (default: demo-out)")
+    d.add_argument("-o", "--output", type=_directory, metavar="DIR", default="demo-out",
+                   help="output directory (default: demo-out)")
     d.add_argument("--force", action="store_true", help="overwrite an existing non-empty output directory")
     _common(d)
     d.set_defaults(func=cmd_demo)
@@ -362,6 +392,17 @@ def main(argv: list[str] | None = None) -> int:
         con.clear()
         print(f"error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_INPUT
+    except MemoryError:
+        con.clear()
+        print("error: mesh: not enough memory for this problem; use a coarser mesh (mesh.nx, mesh.nphi, "
+              "mesh.refine)", file=sys.stderr)
+        return EXIT_INPUT
+    except Exception as exc:  # noqa: BLE001 — a bug: one line and where to report it; the traceback under -v/--log
+        con.clear()
+        print(f"internal error: {type(exc).__name__}: {exc}\nThis is a bug in shellcontact: please report it with "
+              "the case file and the output of the same command with -vv --log run.log", file=sys.stderr)
+        log.info("".join(traceback.format_exception(exc)).rstrip())
+        return EXIT_FAIL
 
 
 if __name__ == "__main__":

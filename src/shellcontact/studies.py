@@ -16,6 +16,7 @@ import io as _io
 import json
 import logging
 import math
+import numbers
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -23,6 +24,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
+from .arguments import expect_callable, expect_case, expect_integer, expect_numbers, expect_path
 from .case import Case, case_from_dict
 from .errors import InputError
 from .files import atomic_write_bytes, atomic_write_text, write_json
@@ -201,6 +203,14 @@ def sweep(
     and the figures ``sweep.png`` and, with contact, ``force_indentation.png``. Serial sweeps
     pass the previous step's result to ``solve`` as a warm start when ``solve`` accepts one.
     """
+    expect_case(case, "sweep")
+    if not isinstance(param, str):
+        raise TypeError(f"sweep(): param must be a dotted case-file key such as 'punch.0.indentation', got "
+                        f"{type(param).__name__}")
+    values = expect_numbers(values, "sweep", "values")
+    expect_path(output_dir, "sweep", "output_dir", optional=True)
+    jobs = expect_integer(jobs, "sweep", "jobs", 1)
+    expect_callable(progress, "sweep", "progress")
     split_path(param)
     if not values:
         raise InputError("--values", "no values given")
@@ -340,8 +350,12 @@ def convergence(
     but the finest level the relative errors against the finest level (``error_energy``,
     ``error_<quantity>``) with observed rates log(e_{l−1}/e_l)/log(h_{l−1}/h_l).
     """
-    if not isinstance(levels, int) or levels < 2:
+    expect_case(case, "convergence")
+    if isinstance(levels, numbers.Integral) and not isinstance(levels, bool) and levels < 2:
         raise InputError("--levels", f"must be an integer >= 2, got {levels!r}")
+    levels = expect_integer(levels, "convergence", "levels", 2)
+    expect_path(output_dir, "convergence", "output_dir", optional=True)
+    expect_callable(progress, "convergence", "progress")
     r0 = case.mesh.refine
     rows, sums = [], []
     qname = None
