@@ -439,3 +439,25 @@ def test_unexpected_error_is_one_line_and_please_report(monkeypatch: pytest.Monk
     err = capsys.readouterr().err
     assert "Traceback (most recent call last)" in err and "ZeroDivisionError: a bug" in err
     assert "Traceback (most recent call last)" in log.read_text()
+
+
+def test_deeply_nested_values(run: InProcess, tmp_path: Path) -> None:
+    """tomllib reads nested arrays recursively: nesting beyond the recursion limit is bad input, not a crash."""
+    deep = "[" * 100_000 + "]" * 100_000
+    (tmp_path / "case.toml").write_text(BASE + f"x = {deep}\n")
+    r = run("run", "case.toml", "-o", "out")
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert "error: case: 'case.toml' nests arrays or inline tables too deeply" in r.stderr
+    (tmp_path / "case.toml").write_text(BASE)
+    r = run("run", "case.toml", "-o", "out", "--set", f"mesh.x_lines={deep}")
+    assert r.returncode == 2 and "error: --set mesh.x_lines: the value nests arrays" in r.stderr, r.stderr
+
+
+def test_mesh_file_no_reader_takes(run: InProcess, tmp_path: Path) -> None:
+    """meshio exits (SystemExit) on a .msh file that none of its readers takes: refused by name, not exit 1."""
+    (tmp_path / "garbage.msh").write_bytes(bytes(range(256)) * 4)
+    (tmp_path / "case.toml").write_text(BASE)
+    r = run("run", "case.toml", "-o", "out", "--set", 'mesh.file="garbage.msh"')
+    assert r.returncode == 2, r.stderr
+    expected = "error: mesh.file: cannot read mesh file 'garbage.msh': no reader of meshio recognises it"
+    assert r.stderr.strip() == expected

@@ -352,6 +352,8 @@ def read_case_dict(path: str | Path) -> dict[str, Any]:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError("case", f"malformed TOML in {str(path)!r}: {exc}") from None
+    except RecursionError:  # tomllib parses nested arrays and inline tables recursively
+        raise InputError("case", f"{str(path)!r} nests arrays or inline tables too deeply to be read") from None
 
 
 def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:

@@ -25,6 +25,8 @@ def parse_value(text: str, where: str = "--set") -> Any:
     """A TOML literal (number, bool, string, array, inline table); a bare word is a string."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
+    except RecursionError:  # tomllib parses nested arrays and inline tables recursively
+        raise InputError(where, "the value nests arrays or inline tables too deeply to be read") from None
     except tomllib.TOMLDecodeError:
         if _BARE.match(text) and not text[0].isdigit() and text[0] not in "+-.":
             return text
