@@ -461,3 +461,20 @@ def test_mesh_file_no_reader_takes(run: InProcess, tmp_path: Path) -> None:
     assert r.returncode == 2, r.stderr
     expected = "error: mesh.file: cannot read mesh file 'garbage.msh': no reader of meshio recognises it"
     assert r.stderr.strip() == expected
+
+
+def test_dual_without_curvature_is_a_solver_failure(run: InProcess, tmp_path: Path) -> None:
+    """Found by the fuzzer: a force-controlled plane whose first contact is on a clamped edge. The dual Hessian
+    B A⁻¹ Bᵀ vanishes on the rows the clamp holds, so MPRGP's proportioning step divided by zero (exit 1); it is
+    now a solver failure (exit 3) that says why and names the method that copes (the active set solves it)."""
+    (tmp_path / "case.toml").write_text(textwrap.dedent("""\
+        shell = {radius = 1.0, length = 1.0, angle = [60.0, 120.0], thickness = 0.01, young = 2.1e11, poisson = 0.3}
+        mesh = {nx = 4, nphi = 4}
+        punch = [{shape = "plane", force = 1.0, center = [298681.0, 0.0, 0.0], normal = [18605.0, 3.0, 3.0]}]
+        """))
+    r = run("run", "case.toml", "-o", "out", "--no-figures", "--no-report", "--method", "dual")
+    assert r.returncode == 3 and "Traceback" not in r.stderr, r.stderr
+    assert "dual: the dual Hessian has no curvature along the constraint rows" in r.stderr
+    assert not (tmp_path / "out").exists()
+    r = run("run", "case.toml", "-o", "out", "--no-figures", "--no-report", "--method", "active-set")
+    assert r.returncode == 0, r.stderr

@@ -25,20 +25,23 @@ Vector = tuple[float, float, float] | Callable[[np.ndarray, np.ndarray], np.ndar
 
 
 def _eval(value, x, phi) -> np.ndarray:
-    if isinstance(value, UserFunction):
-        return value.field(x, phi)
+    if callable(value):
+        return _checked(value, "loads").field(x, phi)
     return np.full(np.shape(x), float(value))
 
 
 def _eval_vec(value, x, phi) -> np.ndarray:
-    if isinstance(value, UserFunction):
-        return value.vector_field(x, phi)
+    if callable(value):
+        return _checked(value, "loads").vector_field(x, phi)
     return np.asarray(value, dtype=float).reshape((3,) + (1,) * np.ndim(x)) * np.ones(np.shape(x))
 
 
 def _checked(value, where: str):
-    """A callable load as a ``UserFunction`` for the key ``where`` (its calls then fail by that name)."""
-    return user_function(value, where) if callable(value) else value
+    """A callable load as a ``UserFunction`` for the key ``where`` (its calls then fail by that name); a
+    ``UserFunction`` keeps the key it was given for."""
+    if isinstance(value, UserFunction) or not callable(value):
+        return value
+    return user_function(value, where)
 
 
 @dataclass(frozen=True)
