@@ -337,7 +337,8 @@ def test_custom_punch_function_fails_by_its_key(run: InProcess, function: str, f
 @pytest.mark.parametrize(
     "setting,fragments",
     [
-        ("shell.young=" + "9" * 400, ["shell.young", "too large for a floating-point number", "400 characters"]),
+        ("shell.young=" + "9" * 400,
+         ["shell.young", "too large for a floating-point number", "an integer of 400 digits"]),
         ("mesh.refine=" + "9" * 40, ["mesh.refine", "too large: 40 digits", "2^63 - 1"]),
         ("mesh.nx=-" + "9" * 25, ["mesh.nx", "too large: 25 digits"]),
         ("shell.radius=1e300", ["shell.radius", "magnitude between 1e-30 and 1e+30", "1e+300"]),
@@ -478,3 +479,20 @@ def test_dual_without_curvature_is_a_solver_failure(run: InProcess, tmp_path: Pa
     assert not (tmp_path / "out").exists()
     r = run("run", "case.toml", "-o", "out", "--no-figures", "--no-report", "--method", "active-set")
     assert r.returncode == 0, r.stderr
+
+
+def test_integers_longer_than_python_reads(run: InProcess, tmp_path: Path) -> None:
+    """int() refuses more than 4300 digits (a ValueError inside tomllib, and in repr): bad input by name."""
+    (tmp_path / "case.toml").write_text(edit(BASE, "nx = 2", "nx = " + "9" * 5000))
+    r = run("run", "case.toml", "-o", "out")
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert "error: case: 'case.toml' holds an integer of more than 4300 digits" in r.stderr
+    (tmp_path / "case.toml").write_text(BASE)
+    r = run("run", "case.toml", "-o", "out", "--set", "mesh.nx=" + "9" * 5000)
+    assert r.returncode == 2 and "error: --set mesh.nx: the value holds an integer of more than 4300" in r.stderr
+    data = {"shell": {"radius": 10**5000, "length": 1.0, "full": True, "thickness": 0.1, "young": 1.0,
+                      "poisson": 0.0}}
+    from shellcontact import InputError, case_from_dict
+
+    with pytest.raises(InputError, match="shell.radius: is too large for a floating-point number: an integer of"):
+        case_from_dict(data)

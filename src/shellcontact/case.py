@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 import tomllib
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -354,6 +355,9 @@ def read_case_dict(path: str | Path) -> dict[str, Any]:
         raise InputError("case", f"malformed TOML in {str(path)!r}: {exc}") from None
     except RecursionError:  # tomllib parses nested arrays and inline tables recursively
         raise InputError("case", f"{str(path)!r} nests arrays or inline tables too deeply to be read") from None
+    except ValueError:  # int(): Python reads at most sys.get_int_max_str_digits() digits
+        raise InputError("case", f"{str(path)!r} holds an integer of more than {sys.get_int_max_str_digits()} "
+                         "digits, more than Python reads") from None
 
 
 def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:

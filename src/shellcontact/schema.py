@@ -79,8 +79,18 @@ def plain(v: Any) -> Any:
     return v
 
 
+def digits(n: int) -> int:
+    """The number of decimal digits of ``n`` (without str(): Python refuses it beyond 4300 digits)."""
+    try:
+        return len(str(abs(n)))
+    except ValueError:  # about: 2^(b-1) <= |n| < 2^b
+        return math.floor(abs(n).bit_length() * math.log10(2)) + 1
+
+
 def shown(v: Any, limit: int = 60) -> str:
     """``repr(v)`` cut to ``limit`` characters for a message."""
+    if isinstance(v, int) and abs(v) >= 10**limit:  # also: repr() refuses more than 4300 digits
+        return f"an integer of {digits(v)} digits"
     text = repr(v)
     return text if len(text) <= limit else f"{text[:limit - 15]}...{text[-12:]} ({len(text)} characters)"
 
@@ -175,7 +185,7 @@ class Key:
             if not isinstance(v, numbers.Integral) or isinstance(v, bool):
                 raise InputError(where, f"must be an integer, got {type(v).__name__} {shown(v)}")
             if abs(v) > MAX_INTEGER:
-                raise InputError(where, f"is too large: {len(str(abs(v)))} digits (at most 2^63 - 1 allowed; "
+                raise InputError(where, f"is too large: {digits(v)} digits (at most 2^63 - 1 allowed; "
                                  f"{self.range_text()})")
             return int(self._range(int(v), where))
         if k == "bool":
