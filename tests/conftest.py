@@ -9,6 +9,20 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
+try:  # the fuzzer's profiles (tests/test_fuzz.py): `make test` runs "subset", `make fuzz` "fuzz"
+    from hypothesis import HealthCheck, settings
+except ImportError:  # the dev extra is not installed: test_fuzz.py then fails to import, by name
+    pass
+else:
+    _slow = [HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.filter_too_much]
+    # a fixed seed: the same few hundred cases on every machine and every run (75 per template)
+    settings.register_profile("subset", max_examples=75, derandomize=True, deadline=None, database=None,
+                              suppress_health_check=_slow, print_blob=True)
+    # 2 500 per template, 10 000 in all, new ones each run (failures are kept in .hypothesis/)
+    settings.register_profile("fuzz", max_examples=2500, deadline=None, suppress_health_check=_slow,
+                              print_blob=True)
+    settings.load_profile("subset")
+
 
 @pytest.fixture(scope="session")
 def examples_dir() -> Path:

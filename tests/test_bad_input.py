@@ -13,6 +13,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from inprocess import run_cli
 
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
@@ -230,3 +231,268 @@ def test_solver_failure_exit_3(tmp_path: Path) -> None:
     assert table and all(len(row) == 2 and float(row[1]) >= 0 for row in table)  # one residual per line
     assert "penetration" in r.stderr
     assert not (tmp_path / "out" / "summary.json").exists()
+
+
+# -- issue 12: bad values never crash (these run the command line in this process: faster) ----------------
+class InProcess:
+    """``shellcontact ARGS`` in this process, in a directory holding ``usermod`` (user functions)."""
+
+    def __init__(self, directory: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        (directory / "usermod.py").write_text(USER_MODULE)
+        monkeypatch.chdir(directory)
+        monkeypatch.syspath_prepend(str(directory))
+        monkeypatch.delitem(sys.modules, "usermod", raising=False)
+
+    def __call__(self, *args: str) -> subprocess.CompletedProcess:
+        code, stderr = run_cli(list(args))
+        return subprocess.CompletedProcess(list(args), code, "", stderr)
+
+
+@pytest.fixture
+def run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> InProcess:
+    return InProcess(tmp_path, monkeypatch)
+
+
+USER_MODULE = textwrap.dedent(
+    """\
+    import numpy as np
+
+    def raises(*args):
+        raise RuntimeError("user code failed")
+
+    def nan_field(*args):
+        return np.full(np.shape(args[0]), np.nan)
+
+    def wrong_shape(*args):
+        return np.ones(7)
+
+    def text(*args):
+        return "abc"
+
+    def nan_later(x, phi):  # finite on the 9 x 9 grid sampled when the case is read, NaN in assembly
+        return np.full(np.shape(x), 0.25 if np.size(x) == 81 else np.nan)
+
+    def z_nan(X):
+        return np.full(X.shape[1], np.nan), np.zeros(X.shape)
+
+    def z_shapes(X):
+        return np.ones(3), np.ones(3)
+
+    def z_later(X):  # good on the 3 x 3 grid sampled at placement, raises in assembly
+        if X.shape[1] != 9:
+            raise ValueError("user code failed later")
+        d = X - np.array([[0.0], [0.0], [3.5]])
+        r = np.linalg.norm(d, axis=0)
+        return r - 2.0, d / r
+    """
+)
+FUNCTION_KEYS = ["shell.thickness", "loads.normal", "loads.surface", "loads.line.0.normal", "loads.line.0.force"]
+BEHAVIOURS = {
+    "raises": ["raised RuntimeError: user code failed"],
+    "nan_field": ["non-finite"],
+    "wrong_shape": ["must return", "shape (7,)"],
+    "text": ["must return", "str"],
+    "nan_later": ["non-finite"],
+}
+
+
+@pytest.mark.parametrize("behaviour", sorted(BEHAVIOURS))
+@pytest.mark.parametrize("key", FUNCTION_KEYS)
+def test_user_function_fails_by_its_key(run: InProcess, tmp_path: Path, key: str, behaviour: str) -> None:
+    """A "module:function" that raises, returns the wrong shape or NaN — when the case is read or only later,
+    during assembly (nan_later) — is exit 2 naming its key."""
+    text = edit(BASE, "[[probes]]", "[[loads.line]]\nx = 12.5\n\n[[probes]]")
+    (tmp_path / "case.toml").write_text(text)
+    r = run("run", "case.toml", "-o", "out", "--no-figures", "--set", f'{key}="usermod:{behaviour}"')
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr
+    msg = r.stderr.strip().splitlines()[-1]
+    assert msg.startswith(f"error: {key}: usermod:{behaviour}"), msg
+    for fragment in BEHAVIOURS[behaviour]:
+        assert fragment in msg, (fragment, msg)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    "function,fragments",
+    [
+        ("raises", ["raised RuntimeError: user code failed"]),
+        ("z_nan", ["non-finite"]),
+        ("z_shapes", ["shapes (9,) and (3, 9)", "got (3,) and (3,)"]),
+        ("text", ["must return a pair (Z, gradZ)", "str"]),
+        ("z_later", ["raised ValueError: user code failed later"]),
+    ],
+)
+def test_custom_punch_function_fails_by_its_key(run: InProcess, function: str, fragments: list[str]) -> None:
+    punch = f'punch.0={{shape="custom", function="usermod:{function}", direction=[0, 0, -1], indentation=1e-3}}'
+    r = run("run", PANEL, "-o", "out", "--no-figures", "--set", "mesh.nx=4", "--set", "mesh.nphi=4",
+            "--set", punch)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    msg = r.stderr.strip().splitlines()[-1]
+    assert msg.startswith(f"error: punch.0.function: usermod:{function}"), msg
+    for fragment in fragments:
+        assert fragment in msg, (fragment, msg)
+
+
+@pytest.mark.parametrize(
+    "setting,fragments",
+    [
+        ("shell.young=" + "9" * 400,
+         ["shell.young", "too large for a floating-point number", "an integer of 400 digits"]),
+        ("mesh.refine=" + "9" * 40, ["mesh.refine", "too large: 40 digits", "2^63 - 1"]),
+        ("mesh.nx=-" + "9" * 25, ["mesh.nx", "too large: 25 digits"]),
+        ("shell.radius=1e300", ["shell.radius", "magnitude between 1e-30 and 1e+30", "1e+300"]),
+        ("shell.length=1e-300", ["shell.length", "magnitude between 1e-30 and 1e+30"]),
+        ("loads.surface=[0, 0, -1e200]", ["loads.surface", "must be 0 or of magnitude"]),
+        ("shell.young=nan", ["shell.young", "must be finite"]),
+        ("shell.young=-inf", ["shell.young", "must be finite"]),
+        ('shell.young="1e999"', ["shell.young", "must be a number", "str"]),
+        ("probes={x = 1.0, phi = 60.0}", ["probes", "must be an array of tables [[probes]]", "dict"]),
+        ("probes=3", ["probes", "must be an array of tables [[probes]]", "int"]),
+        ("probes=[1, 2]", ["probes.0", "must be a table", "int"]),
+        ("loads.point={x = 1.0, phi = 60.0, force = [0, 0, 1]}", ["loads.point", "array of tables [[loads.point]]"]),
+        ("loads.line=1", ["loads.line", "must be an array of tables [[loads.line]]"]),
+        ("punch=1", ["punch", "must be an array of tables [[punch]]"]),
+        ("mesh=[1]", ["mesh", "must be a table", "list"]),
+        ("shell.thickness=\"usermod:nothing\"", ["shell.thickness", "cannot import", "AttributeError"]),
+        ("shell.thickness=\":f\"", ["shell.thickness", "both names given"]),
+    ],
+)
+def test_absurd_values_are_refused_by_name(run: InProcess, tmp_path: Path, setting: str, fragments: list[str]) -> None:
+    (tmp_path / "case.toml").write_text(BASE)
+    r = run("run", "case.toml", "-o", "out", "--no-figures", "--set", setting)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    msg = r.stderr.strip().splitlines()[-1]
+    for fragment in fragments:
+        assert fragment in msg, (fragment, msg)
+
+
+def test_huge_punch_is_refused_by_name(run: InProcess, tmp_path: Path) -> None:
+    """A sphere whose radius dwarfs the shell: its distance function has no digits left on the shell's scale
+    (it was placed with a random force, here 0, or failed to converge with a traceback)."""
+    args = ["--set", "mesh.nx=4", "--set", "mesh.nphi=4", "--set", "punch.0.radius=1e20",
+            "--set", "punch.0.center=[0, 0, 1.00000000000000001e20]"]
+    r = run("run", PANEL, "-o", "out", "--no-figures", *args)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    msg = r.stderr.strip().splitlines()[-1]
+    assert msg.startswith("error: punch.0: a punch of size 1e+20") and "resolves the gap only to" in msg, msg
+
+
+def test_utf8_byte_order_mark_is_accepted(run: InProcess, tmp_path: Path) -> None:
+    (tmp_path / "case.toml").write_bytes(b"\xef\xbb\xbf" + BASE.encode())
+    r = run("run", "case.toml", "-o", "out", "--no-figures", "--no-report")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "out" / "summary.json").is_file()
+
+
+def test_utf16_is_refused_by_name(run: InProcess, tmp_path: Path) -> None:
+    (tmp_path / "case.toml").write_bytes(BASE.encode("utf-16"))
+    r = run("run", "case.toml", "-o", "out")
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "UTF-16" in r.stderr and "byte-order mark" in r.stderr and "save it as UTF-8" in r.stderr
+
+
+def test_case_file_is_a_directory(run: InProcess, tmp_path: Path) -> None:
+    (tmp_path / "case.toml").mkdir()
+    r = run("run", "case.toml", "-o", "out")
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "case: cannot read 'case.toml'" in r.stderr and "directory" in r.stderr
+
+
+@pytest.mark.parametrize(
+    "args,fragments",
+    [
+        (["run", "case.toml", "-o", ""], ["-o/--output", "must name a directory"]),
+        (["sweep", "case.toml", "--param", "mesh.nx", "--values", "2,3", "-o", " "], ["-o/--output"]),
+        (["demo", "-o", ""], ["-o/--output"]),
+        (["run", "case.toml", "--profile-x", "nan"], ["--profile-x", "must be finite"]),
+        (["run", "case.toml", "--profile-phi", "inf"], ["--profile-phi", "must be finite"]),
+        (["run", "case.toml", "-o", "out", "--profile-x", "1e300"],
+         ["--profile-x", "must lie on the shell", "[0, 25]"]),
+        (["run", "case.toml", "-o", "out", "--profile-phi", "95"], ["--profile-phi", "[50, 90]"]),
+    ],
+    ids=["run-o", "sweep-o", "demo-o", "profile-x-nan", "profile-phi-inf", "profile-x-outside", "profile-phi-outside"],
+)
+def test_bad_arguments(run: InProcess, tmp_path: Path, args: list[str], fragments: list[str]) -> None:
+    (tmp_path / "case.toml").write_text(BASE)
+    r = run(*args)
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    for fragment in fragments:
+        assert fragment in r.stderr, (fragment, r.stderr)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml", "usermod.py"]  # nothing written
+
+
+def test_unexpected_error_is_one_line_and_please_report(monkeypatch: pytest.MonkeyPatch, capsys, tmp_path: Path):
+    """A bug (here: a command that raises an exception no layer expects) is exit 1 with a short message;
+    the traceback is shown under -v and written to --log."""
+    from shellcontact import cli as cli_module
+
+    def broken(args, con):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(cli_module, "cmd_info", broken)
+    assert cli_module.main(["info"]) == 1
+    err = capsys.readouterr().err
+    assert "internal error: ZeroDivisionError: a bug" in err and "please report" in err
+    assert "Traceback" not in err
+    log = tmp_path / "run.log"
+    assert cli_module.main(["info", "-v", "--log", str(log)]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err and "ZeroDivisionError: a bug" in err
+    assert "Traceback (most recent call last)" in log.read_text()
+
+
+def test_deeply_nested_values(run: InProcess, tmp_path: Path) -> None:
+    """tomllib reads nested arrays recursively: nesting beyond the recursion limit is bad input, not a crash."""
+    deep = "[" * 100_000 + "]" * 100_000
+    (tmp_path / "case.toml").write_text(BASE + f"x = {deep}\n")
+    r = run("run", "case.toml", "-o", "out")
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert "error: case: 'case.toml' nests arrays or inline tables too deeply" in r.stderr
+    (tmp_path / "case.toml").write_text(BASE)
+    r = run("run", "case.toml", "-o", "out", "--set", f"mesh.x_lines={deep}")
+    assert r.returncode == 2 and "error: --set mesh.x_lines: the value nests arrays" in r.stderr, r.stderr
+
+
+def test_mesh_file_no_reader_takes(run: InProcess, tmp_path: Path) -> None:
+    """meshio exits (SystemExit) on a .msh file that none of its readers takes: refused by name, not exit 1."""
+    (tmp_path / "garbage.msh").write_bytes(bytes(range(256)) * 4)
+    (tmp_path / "case.toml").write_text(BASE)
+    r = run("run", "case.toml", "-o", "out", "--set", 'mesh.file="garbage.msh"')
+    assert r.returncode == 2, r.stderr
+    expected = "error: mesh.file: cannot read mesh file 'garbage.msh': no reader of meshio recognises it"
+    assert r.stderr.strip() == expected
+
+
+def test_dual_without_curvature_is_a_solver_failure(run: InProcess, tmp_path: Path) -> None:
+    """Found by the fuzzer: a force-controlled plane whose first contact is on a clamped edge. The dual Hessian
+    B A⁻¹ Bᵀ vanishes on the rows the clamp holds, so MPRGP's proportioning step divided by zero (exit 1); it is
+    now a solver failure (exit 3) that says why and names the method that copes (the active set solves it)."""
+    (tmp_path / "case.toml").write_text(textwrap.dedent("""\
+        shell = {radius = 1.0, length = 1.0, angle = [60.0, 120.0], thickness = 0.01, young = 2.1e11, poisson = 0.3}
+        mesh = {nx = 4, nphi = 4}
+        punch = [{shape = "plane", force = 1.0, center = [298681.0, 0.0, 0.0], normal = [18605.0, 3.0, 3.0]}]
+        """))
+    r = run("run", "case.toml", "-o", "out", "--no-figures", "--no-report", "--method", "dual")
+    assert r.returncode == 3 and "Traceback" not in r.stderr, r.stderr
+    assert "dual: the dual Hessian has no curvature along the constraint rows" in r.stderr
+    assert not (tmp_path / "out").exists()
+    r = run("run", "case.toml", "-o", "out", "--no-figures", "--no-report", "--method", "active-set")
+    assert r.returncode == 0, r.stderr
+
+
+def test_integers_longer_than_python_reads(run: InProcess, tmp_path: Path) -> None:
+    """int() refuses more than 4300 digits (a ValueError inside tomllib, and in repr): bad input by name."""
+    (tmp_path / "case.toml").write_text(edit(BASE, "nx = 2", "nx = " + "9" * 5000))
+    r = run("run", "case.toml", "-o", "out")
+    assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+    assert "error: case: 'case.toml' holds an integer of more than 4300 digits" in r.stderr
+    (tmp_path / "case.toml").write_text(BASE)
+    r = run("run", "case.toml", "-o", "out", "--set", "mesh.nx=" + "9" * 5000)
+    assert r.returncode == 2 and "error: --set mesh.nx: the value holds an integer of more than 4300" in r.stderr
+    data = {"shell": {"radius": 10**5000, "length": 1.0, "full": True, "thickness": 0.1, "young": 1.0,
+                      "poisson": 0.0}}
+    from shellcontact import InputError, case_from_dict
+
+    with pytest.raises(InputError, match="shell.radius: is too large for a floating-point number: an integer of"):
+        case_from_dict(data)

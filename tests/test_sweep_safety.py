@@ -28,8 +28,9 @@ import os, time
 from pathlib import Path
 
 def normal(x, phi):
-    Path(os.environ["SLOWLOAD_DIR"], f"step-in-{os.getpid()}").touch()  # a process is inside a step
-    time.sleep(120)
+    if getattr(x, "shape", None) != (9, 9):  # not the 9 × 9 sample taken when a case is read: assembly
+        Path(os.environ["SLOWLOAD_DIR"], f"step-in-{os.getpid()}").touch()  # a process is inside a step
+        time.sleep(120)
     return 0.0 * x
 '''
 

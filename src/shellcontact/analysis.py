@@ -27,10 +27,11 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import model
+from .arguments import expect_callable, expect_case, expect_choice
 from .case import Case
 from .contact import ContactOperator, contact_operator, contact_zone, penetration_outside
 from .errors import InputError, SolverError
-from .linalg import factorize
+from .linalg import BACKENDS, factorize
 from .loads import load_vector
 from .mesh import ShellMesh, build_mesh
 from .options import SolverOptions
@@ -428,6 +429,13 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     ``max_memory`` (bytes, or a size such as ``"8G"``; default: the memory available) is refused
     (InputError naming the mesh key).
     """
+    expect_case(case, "solve")
+    expect_choice(method, "solve", "method", METHODS)
+    expect_choice(backend, "solve", "backend", ("auto", *BACKENDS))
+    if warm_start is not None and not isinstance(warm_start, Result):
+        raise TypeError(f"solve(): warm_start must be a Result of an earlier solve or None, got "
+                        f"{type(warm_start).__name__}")
+    expect_callable(progress, "solve", "progress")
     opts = case.solver.with_method(method)
     if backend is not None:
         opts = dataclasses.replace(opts, backend=backend)

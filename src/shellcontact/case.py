@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 import tomllib
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -20,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from .arguments import expect_path, expect_strings
 from .errors import InputError
 from .geometry import Shell
 from .linalg import BACKENDS
@@ -312,7 +314,9 @@ def _check_mesh_lines(shell: Shell, ms: MeshSpec) -> None:
 def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
     """Validate a case given as a (TOML-shaped) dictionary; a relative mesh.file is read beside ``source``."""
     if not isinstance(data, dict):
-        raise InputError("case", f"must be a table of sections, got {type(data).__name__}")
+        raise TypeError(f"case_from_dict(): data must be a dict of case-file tables such as {{'shell': {{...}}}}, "
+                        f"got {type(data).__name__}")
+    expect_path(source, "case_from_dict", "source", optional=True)
     check_unknown("", data, CASE.names())
     if "shell" not in data:
         raise InputError("shell", "section [shell] is required")
@@ -334,6 +338,7 @@ def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
     solver = parse_solver(data.get("solver", {}))
     punches = parse_punches(data.get("punch", []))
     loads = parse_loads(data.get("loads", {}))
+    loads.check_functions(shell)
     for i, pt in enumerate(loads.points):
         _check_inside(shell, f"loads.point.{i}", pt.x, pt.phi)
     mesh = parse_mesh(data.get("mesh", {}))
@@ -358,19 +363,31 @@ def read_case_dict(path: str | Path) -> dict[str, Any]:
     """The raw TOML dictionary of a case file, with clear errors for unreadable or malformed files."""
     path = Path(path)
     try:
-        text = path.read_text()
+        data = path.read_bytes()
     except OSError as exc:
         raise InputError("case", f"cannot read {str(path)!r}: {exc.strerror}") from None
-    except UnicodeDecodeError:
-        raise InputError("case", f"{str(path)!r} is not a UTF-8 text file") from None
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise InputError("case", f"{str(path)!r} is UTF-16 (it starts with a UTF-16 byte-order mark); "
+                         "save it as UTF-8")
+    try:
+        text = data.decode("utf-8-sig")  # a UTF-8 byte-order mark (Windows editors write one) is accepted
+    except UnicodeDecodeError as exc:
+        raise InputError("case", f"{str(path)!r} is not a UTF-8 text file (byte {exc.start} is not UTF-8)") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError("case", f"malformed TOML in {str(path)!r}: {exc}") from None
+    except RecursionError:  # tomllib parses nested arrays and inline tables recursively
+        raise InputError("case", f"{str(path)!r} nests arrays or inline tables too deeply to be read") from None
+    except ValueError:  # int(): Python reads at most sys.get_int_max_str_digits() digits
+        raise InputError("case", f"{str(path)!r} holds an integer of more than {sys.get_int_max_str_digits()} "
+                         "digits, more than Python reads") from None
 
 
 def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:
     """Read and validate a TOML case file; ``sets`` are ``key=value`` overrides (``--set``)."""
+    expect_path(path, "load_case", "path")
+    sets = expect_strings(sets, "load_case", "sets", "mesh.refine=1")
     data = read_case_dict(path)
     if sets:
         from .overrides import apply_overrides, parse_assignment

@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import os
 import signal
 import sys
 import threading
 import time
+import traceback
 from pathlib import Path
 
 from . import __version__
@@ -128,6 +130,15 @@ def _vec(v) -> str:
     return "[" + ", ".join(f"{c:.4g}" for c in v) + "]"
 
 
+def _check_profiles(args: argparse.Namespace, shell) -> None:
+    """--profile-x / --profile-phi must lie on the shell (the profile is the mesh line nearest them)."""
+    ranges = {"--profile-x": (args.profile_x, shell.x_min, shell.x_max),
+              "--profile-phi": (args.profile_phi, math.degrees(shell.alpha), math.degrees(shell.beta))}
+    for name, (v, lo, hi) in ranges.items():
+        if v is not None and not lo <= v <= hi:
+            raise InputError(name, f"must lie on the shell, in [{lo:.6g}, {hi:.6g}], got {v:g}")
+
+
 def _print_summary(con: Console, s: dict) -> None:
     con.print(f"dofs {s['dofs']}  elements {s['elements']}  energy {s['energy']:.6g}  max|w| {s['max_abs_w']:.6g}")
     for p in s.get("probes", []):
@@ -162,6 +173,7 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     from .transaction import replace_dir
 
     case, sets = _load(args)
+    _check_profiles(args, case.shell)
     out = _output(args, "-out")
 
     def show(iteration: int, residuals: dict | None = None) -> None:  # once per contact-solver iteration
@@ -256,6 +268,23 @@ def cmd_info(args: argparse.Namespace, con: Console) -> int:
 
 
 # -- parser ----------------------------------------------------------------------------------------------
+def _directory(text: str) -> str:
+    """An -o/--output value: a directory name (an empty one would silently mean the default, or '.')."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must name a directory, got an empty string")
+    return text
+
+
+def _finite(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return v
+
+
 def _common(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("output control")
     g.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
@@ -277,7 +306,7 @@ def _output_args(p: argparse.ArgumentParser) -> None:
 
 def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
     p.add_argument("case", help="TOML case file (keys: docs/case-file.md)")
-    p.add_argument("-o", "--output", metavar="DIR", help=out_help)
+    p.add_argument("-o", "--output", type=_directory, metavar="DIR", help=out_help)
     p.add_argument("--method", choices=tuple(METHODS), help="contact solver; same as --set solver.method=...")
     p.add_argument(
         "--set",
@@ -306,9 +335,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _case_args(r, "output directory (default: <case name>-out)")
     r.add_argument("--no-report", action="store_true", help="skip report.html")
-    r.add_argument("--profile-x", type=float, metavar="X", help="pressure profile along the mesh line nearest x = X")
+    r.add_argument("--profile-x", type=_finite, metavar="X", help="pressure profile along the mesh line nearest x = X")
     r.add_argument(
-        "--profile-phi", type=float, metavar="DEG", help="pressure profile along the mesh line nearest phi = DEG"
+        "--profile-phi", type=_finite, metavar="DEG", help="pressure profile along the mesh line nearest phi = DEG"
     )
     _common(r)
     r.set_defaults(func=cmd_run)
@@ -318,7 +347,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="A clamped cylindrical panel pressed by a spherical punch, solved by the "
         "penalty, active-set and dual methods; prints a table and writes DIR.",
     )
-    d.add_argument("-o", "--output", metavar="DIR", default="demo-out", help="output directory (default: demo-out)")
+    d.add_argument("-o", "--output", type=_directory, metavar="DIR", default="demo-out",
+                   help="output directory (default: demo-out)")
     _output_args(d)
     _common(d)
     d.set_defaults(func=cmd_demo)
@@ -419,6 +449,17 @@ def main(argv: list[str] | None = None) -> int:
         con.clear()
         print(f"error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_INPUT
+    except MemoryError:
+        con.clear()
+        print("error: mesh: not enough memory for this problem; use a coarser mesh (mesh.nx, mesh.nphi, "
+              "mesh.refine)", file=sys.stderr)
+        return EXIT_INPUT
+    except Exception as exc:  # noqa: BLE001 — a bug: one line and where to report it; the traceback under -v/--log
+        con.clear()
+        print(f"internal error: {type(exc).__name__}: {exc}\nThis is a bug in shellcontact: please report it with "
+              "the case file and the output of the same command with -vv --log run.log", file=sys.stderr)
+        log.info("".join(traceback.format_exception(exc)).rstrip())
+        return EXIT_FAIL
     finally:
         for sig, handler in handlers.items():
             signal.signal(sig, handler)

@@ -15,6 +15,7 @@ import numpy as np
 
 from .errors import InputError
 from .material import Material
+from .user_functions import UserFunction, user_function
 
 ThicknessFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
@@ -65,13 +66,10 @@ class Shell:
         x0 = -0.5 * self.length if self.x_start is None else float(self.x_start)
         object.__setattr__(self, "_x0", x0)
         if callable(self.thickness):
+            object.__setattr__(self, "thickness", user_function(self.thickness, "shell.thickness"))
             # probe the function on a grid of Ω so that a bad t(x, φ) fails here, not in assembly
             xs, ps = np.meshgrid(np.linspace(x0, x0 + self.length, 9), np.linspace(self.alpha, self.beta, 9))
-            t = np.asarray(self.thickness(xs, ps), dtype=float)
-            if t.shape != xs.shape and t.size != 1:
-                raise InputError("shell.thickness", "a thickness function must return an array shaped like x")
-            if not np.all(np.isfinite(t)) or np.any(t <= 0) or np.any(t >= a):
-                raise InputError("shell.thickness", f"t(x, phi) must lie in (0, radius={a}) on the whole shell")
+            self.t(xs, ps)
         else:
             t = _positive("shell.thickness", self.thickness)
             if t >= a:
@@ -101,8 +99,16 @@ class Shell:
     def t(self, x: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """Thickness t = 2e at (x, φ), broadcast to the shape of x."""
         x = np.asarray(x, dtype=float)
-        if callable(self.thickness):
-            return np.broadcast_to(np.asarray(self.thickness(x, np.asarray(phi)), dtype=float), x.shape)
+        if isinstance(self.thickness, UserFunction):  # checked wherever it is evaluated (assembly included)
+            t = self.thickness.field(x, np.asarray(phi))
+            bad = (t <= 0.0) | (t >= self.radius)
+            if np.any(bad):
+                i = int(np.argmax(bad.ravel()))
+                p = np.broadcast_to(np.asarray(phi, dtype=float), x.shape).ravel()[i]
+                where = f"x = {x.ravel()[i]:.6g}, phi = {math.degrees(p):.6g} deg"
+                raise InputError("shell.thickness", f"t(x, phi) must lie in (0, radius = {self.radius:g}); "
+                                 f"{self.thickness.spec} gives {t.ravel()[i]:.6g} at {where}")
+            return t
         return np.full(x.shape, float(self.thickness))
 
     # -- embedding (MODEL.md §1) -----------------------------------------------------------

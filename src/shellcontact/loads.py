@@ -8,15 +8,17 @@ callable of (x, φ) (vectorised, φ in radians).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .errors import InputError
-from .geometry import to_local
+from .geometry import Shell, to_local
 from .model import element_chunks
 from .spaces import ShellSpace
+from .user_functions import UserFunction, user_function
 
 Value = float | Callable[[np.ndarray, np.ndarray], np.ndarray]
 Vector = tuple[float, float, float] | Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -24,15 +26,22 @@ Vector = tuple[float, float, float] | Callable[[np.ndarray, np.ndarray], np.ndar
 
 def _eval(value, x, phi) -> np.ndarray:
     if callable(value):
-        return np.broadcast_to(np.asarray(value(x, phi), dtype=float), np.shape(x))
+        return _checked(value, "loads").field(x, phi)
     return np.full(np.shape(x), float(value))
 
 
 def _eval_vec(value, x, phi) -> np.ndarray:
     if callable(value):
-        out = np.asarray(value(x, phi), dtype=float)
-        return np.broadcast_to(out, (3,) + np.shape(x))
+        return _checked(value, "loads").vector_field(x, phi)
     return np.asarray(value, dtype=float).reshape((3,) + (1,) * np.ndim(x)) * np.ones(np.shape(x))
+
+
+def _checked(value, where: str):
+    """A callable load as a ``UserFunction`` for the key ``where`` (its calls then fail by that name); a
+    ``UserFunction`` keeps the key it was given for."""
+    if isinstance(value, UserFunction) or not callable(value):
+        return value
+    return user_function(value, where)
 
 
 @dataclass(frozen=True)
@@ -64,6 +73,24 @@ class Loads:
     surface: Vector = (0.0, 0.0, 0.0)
     lines: tuple[LineLoad, ...] = field(default_factory=tuple)
     points: tuple[PointLoad, ...] = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "normal", _checked(self.normal, "loads.normal"))
+        object.__setattr__(self, "surface", _checked(self.surface, "loads.surface"))
+        lines = tuple(
+            dataclasses.replace(ln, force=_checked(ln.force, f"loads.line.{i}.force"),
+                                normal=_checked(ln.normal, f"loads.line.{i}.normal"))
+            for i, ln in enumerate(self.lines)
+        )
+        object.__setattr__(self, "lines", lines)
+
+    def check_functions(self, shell: Shell) -> None:
+        """Sample every load function on a 9 × 9 grid of the shell, so a bad one fails when the case is read."""
+        x, phi = np.meshgrid(np.linspace(shell.x_min, shell.x_max, 9), np.linspace(shell.alpha, shell.beta, 9))
+        for value in (self.normal, *(ln.normal for ln in self.lines)):
+            _eval(value, x, phi)
+        for vector in (self.surface, *(ln.force for ln in self.lines)):
+            _eval_vec(vector, x, phi)
 
 
 def surface_load_vector(space: ShellSpace, normal: Value, surface: Vector, order: int = 10) -> np.ndarray:

@@ -8,6 +8,8 @@ columns are sorted (this fixes the orientation of the Argyris edge-normal dofs).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -235,14 +237,21 @@ def structured(
     return ShellMesh(shell, MeshTri(p, t))
 
 
-def from_file(shell: Shell, path: str) -> ShellMesh:
-    """Read a triangulation of Ω in (x, s) coordinates (s = radius·φ, φ in radians) with meshio."""
+def read_mesh_file(path: str):
+    """The meshio mesh of ``path``; any failure is an InputError on ``mesh.file``."""
     import meshio
 
     try:
-        m = meshio.read(path)
-    except Exception as exc:  # meshio raises many types for unreadable files
-        raise InputError("mesh.file", f"cannot read mesh file {path!r}: {exc}") from None
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            return meshio.read(path)
+    except (Exception, SystemExit) as exc:  # meshio raises many types, and exits on a file no reader takes
+        detail = str(exc) if not isinstance(exc, SystemExit) else "no reader of meshio recognises it"
+        raise InputError("mesh.file", f"cannot read mesh file {path!r}: {detail}") from None
+
+
+def from_file(shell: Shell, path: str) -> ShellMesh:
+    """Read a triangulation of Ω in (x, s) coordinates (s = radius·φ, φ in radians) with meshio."""
+    m = read_mesh_file(path)
     tris = [c.data for c in m.cells if c.type == "triangle"]
     if not tris:
         raise InputError("mesh.file", f"{path!r} contains no 'triangle' cells")

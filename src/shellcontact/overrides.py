@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import copy
 import re
+import sys
 import tomllib
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 from .errors import InputError
+from .schema import shown
 
 _BARE = re.compile(r"^[^\s\[\]{}\"'=,#]+$")  # a word or a path: taken as a string
 _SEGMENT = re.compile(r"^([A-Za-z_][A-Za-z0-9_\-]*|\d+)$")
@@ -25,10 +27,16 @@ def parse_value(text: str, where: str = "--set") -> Any:
     """A TOML literal (number, bool, string, array, inline table); a bare word is a string."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
+    except RecursionError:  # tomllib parses nested arrays and inline tables recursively
+        raise InputError(where, "the value nests arrays or inline tables too deeply to be read") from None
     except tomllib.TOMLDecodeError:
         if _BARE.match(text) and not text[0].isdigit() and text[0] not in "+-.":
             return text
-        raise InputError(where, f'value {text!r} is not a TOML literal (e.g. 2e-3, true, "dual", [0, 0, -1])') from None
+        raise InputError(where, f'value {shown(text)} is not a TOML literal (e.g. 2e-3, true, "dual", '
+                         "[0, 0, -1])") from None
+    except ValueError:  # int(): Python reads at most sys.get_int_max_str_digits() digits
+        raise InputError(where, f"the value holds an integer of more than {sys.get_int_max_str_digits()} digits, "
+                         "more than Python reads") from None
 
 
 def parse_assignment(item: str) -> tuple[str, Any]:

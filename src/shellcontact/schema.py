@@ -12,14 +12,14 @@ concept lives (``case`` for the case file, ``punches.shapes`` for each shape's k
 from __future__ import annotations
 
 import difflib
-import importlib
 import math
 import numbers
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from .errors import InputError
+from .user_functions import user_function
 
 
 class _Required:
@@ -59,33 +59,54 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, numbers.Real) and not isinstance(v, bool)
 
 
+#: the largest integer a key accepts: beyond it an integer is refused by name rather than overflowing NumPy
+MAX_INTEGER = 2**63 - 1
+
+#: a number with a unit (a length, a modulus, a load, ...) is 0 or of magnitude within [1/MAGNITUDE, MAGNITUDE]:
+#: the model raises lengths to the fifth power (Argyris P5) and multiplies them with moduli and loads, and
+#: beyond 1e±30 such products leave double precision (1e±308) — no choice of units needs more
+MAGNITUDE = 1e30
+
+
+def plain(v: Any) -> Any:
+    """NumPy values as the Python values they hold (``np.float64`` → float, ``np.bool_`` → bool, arrays → lists).
+
+    NumPy scalars are accepted wherever a Python value of the same kind is; ``np.bool_`` is a bool
+    (refused as a number, like ``True``).
+    """
+    if type(v).__module__ == "numpy" and hasattr(v, "tolist"):
+        return v.tolist()
+    return v
+
+
+def digits(n: int) -> int:
+    """The number of decimal digits of ``n`` (without str(): Python refuses it beyond 4300 digits)."""
+    try:
+        return len(str(abs(n)))
+    except ValueError:  # about: 2^(b-1) <= |n| < 2^b
+        return math.floor(abs(n).bit_length() * math.log10(2)) + 1
+
+
+def shown(v: Any, limit: int = 60) -> str:
+    """``repr(v)`` cut to ``limit`` characters for a message."""
+    if isinstance(v, int) and abs(v) >= 10**limit:  # also: repr() refuses more than 4300 digits
+        return f"an integer of {digits(v)} digits"
+    text = repr(v)
+    return text if len(text) <= limit else f"{text[:limit - 15]}...{text[-12:]} ({len(text)} characters)"
+
+
 def to_float(v: Any, where: str) -> float:
     """A finite float from a number (ints too large for a float are refused by name)."""
+    v = plain(v)
     if not _is_number(v):
-        raise InputError(where, f"must be a number, got {type(v).__name__} {v!r}")
+        raise InputError(where, f"must be a number, got {type(v).__name__} {shown(v)}")
     try:
         f = float(v)
     except OverflowError:
-        raise InputError(where, f"is too large for a floating-point number: {v!r}") from None
+        raise InputError(where, f"is too large for a floating-point number: {shown(v)}") from None
     if not math.isfinite(f):
         raise InputError(where, f"must be finite, got {v!r}")
     return f
-
-
-def callable_from_string(spec: Any, where: str) -> Callable:
-    """'package.module:function' → the function (user code for thickness, loads, punch shapes)."""
-    if callable(spec):  # programmatic use
-        return spec
-    if not isinstance(spec, str) or ":" not in spec:
-        raise InputError(where, f"must be 'module:callable', got {spec!r}")
-    mod, _, name = spec.partition(":")
-    try:
-        obj = getattr(importlib.import_module(mod), name)
-    except Exception as exc:  # noqa: BLE001 — importing user code may raise anything
-        raise InputError(where, f"cannot import {spec!r}: {exc}") from None
-    if not callable(obj):
-        raise InputError(where, f"{spec!r} is not callable")
-    return obj
 
 
 @dataclass(frozen=True)
@@ -117,10 +138,13 @@ class Key:
             raise ValueError(f"unknown kind {self.kind!r} of key {self.name!r}")
 
     # -- parsing -----------------------------------------------------------------------------------
-    def _range(self, v: float, where: str) -> float:
+    def _in_range(self, v: float) -> bool:
         lo_bad = self.lo is not None and (v <= self.lo if "lo" in self.open else v < self.lo)
         hi_bad = self.hi is not None and (v >= self.hi if "hi" in self.open else v > self.hi)
-        if lo_bad or hi_bad:
+        return not (lo_bad or hi_bad)
+
+    def _range(self, v: float, where: str) -> float:
+        if not self._in_range(v):
             raise InputError(where, f"must be {self.range_text()}, got {v!r}")
         return v
 
@@ -139,35 +163,44 @@ class Key:
 
     def _number(self, v: Any, where: str) -> float:
         f = self._range(to_float(v, where), where)
+        if self.unit != "–" and f != 0.0 and not 1.0 / MAGNITUDE <= abs(f) <= MAGNITUDE:
+            zero = "0 or " if self._in_range(0.0) else ""
+            raise InputError(where, f"must be {zero}of magnitude between {1 / MAGNITUDE:g} and {MAGNITUDE:g} (in "
+                             f"{self.unit}; any consistent units keep a real value there), got {f!r}")
         return math.radians(f) if self.angle else f
 
     def _numbers(self, v: Any, where: str, length: int | None) -> tuple[float, ...]:
         what = f"a list of {length} numbers" if length else "a list of numbers"
         if not isinstance(v, (list, tuple)) or (length is not None and len(v) != length):
-            raise InputError(where, f"must be {what}, got {v!r}")
+            raise InputError(where, f"must be {what}, got {shown(v)}")
         return tuple(self._number(c, where) for c in v)
 
     def parse(self, v: Any, where: str) -> Any:
         """The typed value of ``v`` (given) at key path ``where``."""
         k = self.kind
+        v = plain(v)
         if k == "number":
             return self._number(v, where)
         if k == "integer":
             if not isinstance(v, numbers.Integral) or isinstance(v, bool):
-                raise InputError(where, f"must be an integer, got {type(v).__name__} {v!r}")
+                raise InputError(where, f"must be an integer, got {type(v).__name__} {shown(v)}")
+            if abs(v) > MAX_INTEGER:
+                raise InputError(where, f"is too large: {digits(v)} digits (at most 2^63 - 1 allowed; "
+                                 f"{self.range_text()})")
             return int(self._range(int(v), where))
         if k == "bool":
             if not isinstance(v, bool):
-                raise InputError(where, f"must be true or false, got {v!r}")
+                raise InputError(where, f"must be true or false, got {shown(v)}")
             return v
         if k == "choice":
             if not any(type(v) is type(c) and v == c for c in self.choices):
                 *first, last = map(toml, self.choices)
-                raise InputError(where, f"must be one of {', '.join(first)} or {last}, got {v!r}")
+                options = f"{', '.join(first)} or {last}" if first else last
+                raise InputError(where, f"must be one of {options}, got {shown(v)}")
             return v
         if k == "string":
             if not isinstance(v, str):
-                raise InputError(where, f"must be a string, got {v!r}")
+                raise InputError(where, f"must be a string, got {shown(v)}")
             return v
         if k == "vector":
             return self._numbers(v, where, self.length)
@@ -176,17 +209,18 @@ class Key:
         if k == "numbers":
             return self._numbers(v, where, None)
         if k == "function":
-            return callable_from_string(v, where)
+            return user_function(v, where)
         if k in ("number_or_function", "vector_or_function"):
             if isinstance(v, str) or callable(v):
                 if isinstance(v, str) and ":" not in v:
                     what = "a number" if k == "number_or_function" else f"a list of {self.length} numbers"
-                    raise InputError(where, f"must be {what} (or 'module:callable', a function of (x, phi)), got {v!r}")
-                return callable_from_string(v, where)
+                    raise InputError(where, f"must be {what} (or 'module:function', a function of (x, phi)), "
+                                     f"got {shown(v)}")
+                return user_function(v, where)
             return self._number(v, where) if k == "number_or_function" else self._numbers(v, where, self.length)
         if k == "matrix3":
             if not isinstance(v, (list, tuple)) or len(v) != 3:
-                raise InputError(where, f"must be three 3-vectors [[..], [..], [..]], got {v!r}")
+                raise InputError(where, f"must be three 3-vectors [[..], [..], [..]], got {shown(v)}")
             return tuple(self._numbers(r, where, 3) for r in v)
         assert self.table is not None
         if k == "table":
@@ -252,7 +286,7 @@ class Table:
         where = self.name if where is None else where
         keys = tuple(self.keys if keys is None else keys)
         if not isinstance(raw, Mapping):
-            raise InputError(where, f"must be a table, got {type(raw).__name__} {raw!r}")
+            raise InputError(where, f"must be a table, got {type(raw).__name__} {shown(raw)}")
         check_unknown(where, raw, [k.name for k in keys])
         out: dict[str, Any] = {}
         for k in keys:

@@ -33,7 +33,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from .errors import InputError
-from .mesh import MeshSpec
+from .mesh import MeshSpec, read_mesh_file
 
 #: bytes the interpreter, NumPy, SciPy, scikit-fem and the backend take before the first array
 BASE_BYTES = 150e6
@@ -152,12 +152,7 @@ def _grid(spec: MeshSpec, ncx: float, ncs: float) -> tuple[float, float, float]:
 
 def _file_counts(path: str) -> tuple[float, float, float]:
     """Vertices, triangles, edges of a mesh file (read here: the file is the input)."""
-    import meshio
-
-    try:
-        m = meshio.read(path)
-    except Exception as exc:  # meshio raises many types for unreadable files
-        raise InputError("mesh.file", f"cannot read mesh file {path!r}: {exc}") from None
+    m = read_mesh_file(path)
     ne = float(sum(len(c.data) for c in m.cells if c.type == "triangle"))
     nv = float(len(m.points))
     return nv, ne, nv + ne - 1.0

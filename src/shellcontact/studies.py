@@ -16,6 +16,7 @@ import io as _io
 import json
 import logging
 import math
+import numbers
 import os
 import shutil
 from collections.abc import Callable, Sequence
@@ -25,6 +26,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
+from .arguments import expect_callable, expect_case, expect_integer, expect_numbers, expect_path
 from .case import Case, case_from_dict
 from .errors import InputError
 from .files import atomic_write_bytes, atomic_write_text, check_output_dir, write_json
@@ -337,6 +339,14 @@ def sweep(
     from .sizing import check_steps
     from .transaction import DirectoryLock, Staging, name_in_target, remove_stale
 
+    expect_case(case, "sweep")
+    if not isinstance(param, str):
+        raise TypeError(f"sweep(): param must be a dotted case-file key such as 'punch.0.indentation', got "
+                        f"{type(param).__name__}")
+    values = expect_numbers(values, "sweep", "values")
+    expect_path(output_dir, "sweep", "output_dir", optional=True)
+    jobs = expect_integer(jobs, "sweep", "jobs", 1)
+    expect_callable(progress, "sweep", "progress")
     split_path(param)
     if not values:
         raise InputError("--values", "no values given")
@@ -468,8 +478,12 @@ def convergence(
     ``output_dir`` (convergence.csv, convergence.json, convergence.png, report.html) appears whole
     or not at all; a non-empty one is refused unless ``overwrite``.
     """
-    if not isinstance(levels, int) or levels < 2:
+    expect_case(case, "convergence")
+    if isinstance(levels, numbers.Integral) and not isinstance(levels, bool) and levels < 2:
         raise InputError("--levels", f"must be an integer >= 2, got {levels!r}")
+    levels = expect_integer(levels, "convergence", "levels", 2)
+    expect_path(output_dir, "convergence", "output_dir", optional=True)
+    expect_callable(progress, "convergence", "progress")
     _check_finest(case, case.mesh.refine + levels - 1, max_memory)
     if output_dir is None:
         return _convergence(case, levels, None, progress, figures, max_memory)

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..schema import Key
+from ..user_functions import UserFunction, user_function
 
 ZFunction = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
@@ -167,9 +168,22 @@ class Custom:
     function: ZFunction
     name: str = "custom"
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.function, UserFunction):
+            object.__setattr__(self, "function", user_function(self.function, "punch.function"))
+
     def __call__(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        Z, g = self.function(X)
-        return np.asarray(Z, dtype=float).reshape(X.shape[1]), np.asarray(g, dtype=float).reshape(3, X.shape[1])
+        """(Z, ∇Z), checked on every call: the user's function fails by its key, wherever it is evaluated."""
+        f = self.function
+        out = f(X)
+        n = X.shape[1]
+        if not isinstance(out, (tuple, list)) or len(out) != 2:
+            raise InputError(f.where, f"{f.spec} must return a pair (Z, gradZ), got {type(out).__name__}")
+        shapes = [np.shape(np.asarray(v, dtype=object)) for v in out]
+        if shapes != [(n,), (3, n)]:
+            raise InputError(f.where, f"{f.spec} must return (Z, gradZ) of shapes ({n},) and (3, {n}) for X of "
+                             f"shape (3, {n}); got {shapes[0]} and {shapes[1]}")
+        return f.array(out[0], (n,), "numbers Z"), f.array(out[1], (3, n), "numbers gradZ")
 
     size = math.inf
 
@@ -231,8 +245,8 @@ def _ellipsoid(v: dict[str, Any], where: str) -> Ellipsoid:
 
 
 def _custom(v: dict[str, Any], where: str) -> Custom:
-    f = v["function"]
-    return Custom(f, getattr(f, "__name__", "custom") if v["spec"] is None else v["spec"])
+    f = user_function(v["function"], f"{where}.function")
+    return Custom(f, f.spec if v["spec"] is None else v["spec"])
 
 
 register(ShapeType("sphere", "`sphere`: exact signed distance \\|X − c\\| − r",

@@ -151,9 +151,12 @@ def _edge(h: Callable[[float], float], inside: float, outside: float) -> float:
     """The boundary of {h < 0} between a grid point inside and one outside (conservative fallback)."""
     from scipy.optimize import brentq
 
-    if h(outside) <= 0.0:
+    if h(outside) <= 0.0 or not h(inside) < 0.0:  # no bracket (a grid far coarser than the punch): widen
         return outside
-    return float(brentq(h, inside, outside, xtol=1e-14 * max(1.0, abs(inside)), rtol=1e-15))
+    try:
+        return float(brentq(h, inside, outside, xtol=1e-14 * max(1.0, abs(inside)), rtol=1e-15))
+    except RuntimeError:  # not converged (h is noise at this scale): the conservative end
+        return outside
 
 
 def automatic_zone(Z: Callable[[np.ndarray], np.ndarray], shell: Shell, side_sign: float, gap: float,

@@ -122,7 +122,13 @@ def bound_qp(
                 beta = np.where(beta <= growth * beta.min(), beta, 0.0)
             supp = np.flatnonzero(beta)
             Hb = cols(supp) @ beta[supp]
-            alpha = float(beta @ beta) / float(beta @ Hb)
+            curvature = float(beta @ Hb)
+            if not curvature > 0.0:  # S = B A⁻¹ Bᵀ is singular on these rows: B cannot move them
+                raise SolverError(
+                    "dual: the dual Hessian has no curvature along the constraint rows "
+                    f"{supp[:5].tolist()}{' ...' if supp.size > 5 else ''} (points the supports hold fixed, e.g. on "
+                    "a clamped edge, carry the load); use method = \"active-set\"", iterations=it0 + it)
+            alpha = float(beta @ beta) / curvature
             x = x - alpha * beta
             g = g - alpha * Hb
             rec["step"] = "proportioning"
