@@ -25,6 +25,7 @@ RUN_FILES = (
     "fields.vtu",
     "results.npz",
     "deflection.png",
+    "von_mises.png",
     "deformed.png",
     "pressure.png",
     "pressure_profiles.png",

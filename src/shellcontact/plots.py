@@ -16,10 +16,12 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 from matplotlib.tri import Triangulation
 
-from .fields import contact_vertex_fields
+from .fields import contact_vertex_fields, vertex_fields
 from .files import atomic_write_bytes
+from .units import bracket, with_unit
 
 DPI = 110
 
@@ -76,24 +78,90 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}"
 
 
+def _unit(result, kind: str) -> str:
+    """`` [unit]`` of a kind of quantity in the case's ``[units] system`` (units.py), for axis and colour-bar labels."""
+    return bracket(kind, getattr(result.case, "units", "SI"))
+
+
+def _q(result, value: float, kind: str) -> str:
+    """A number (4 significant digits) with its unit, for titles."""
+    return with_unit(_fmt(value), kind, getattr(result.case, "units", "SI"))
+
+
+def _map_axes(ax, result) -> None:
+    """Axis labels with units and few enough ticks that their labels never overlap."""
+    ax.set_xlabel(f"x{_unit(result, 'length')}")
+    ax.set_ylabel("φ [deg]")
+    ax.xaxis.set_major_locator(MaxNLocator(6))
+    ax.yaxis.set_major_locator(MaxNLocator(8, steps=[1, 1.5, 2, 2.5, 3, 5, 10]))
+
+
+def _contact_outline(ax, result, fields: dict[str, np.ndarray] | None = None) -> bool:
+    """The boundary of the contact region (the active constraint vertices) on a map over (x, φ°)."""
+    status = (fields if fields is not None and "contact_status" in fields else contact_vertex_fields(result)).get(
+        "contact_status")
+    if status is None or not np.any(status == 1) or not np.any(status != 1):
+        return False
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    tri = Triangulation(x, np.degrees(s / sol.shell.radius), sol.space.mesh.t.T)
+    ax.tricontour(tri, (np.asarray(status) == 1).astype(float), levels=[0.5], colors="c", linewidths=1.5)
+    ax.plot([], [], "c-", label="contact boundary")
+    return True
+
+
 # -- run figures -----------------------------------------------------------------------------------------
 def plot_deflection(result, path: str | Path | None = None) -> Figure:
-    """Map of the deflection w (outward positive) over (x, φ°)."""
+    """Map of the deflection w (outward positive) over (x, φ°), with the probes and the contact boundary."""
     tri, w = evaluation_grid(result, "w")
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
     levels = 21 if np.ptp(w) > 0 else 1
     cs = ax.tricontourf(tri, w, levels=levels, cmap="viridis")
-    fig.colorbar(cs, ax=ax, label="w (outward positive)")
+    fig.colorbar(cs, ax=ax, label=f"w, outward positive{_unit(result, 'length')}")
     _probes(ax, result)
+    if _contact_outline(ax, result) or getattr(result.case, "probes", None):
+        ax.legend(loc="upper right", fontsize=8)
     i = int(np.argmax(np.abs(w)))
-    ax.set_title(f"deflection w: max |w| = {_fmt(abs(w[i]))} at x = {_fmt(tri.x[i])}, φ = {_fmt(tri.y[i])}°")
-    ax.set_xlabel("x")
-    ax.set_ylabel("φ (degrees)")
+    ax.set_title(f"deflection w: max |w| = {_q(result, abs(w[i]), 'length')} at x = {_q(result, tri.x[i], 'length')}, "
+                 f"φ = {_fmt(tri.y[i])}°", fontsize=10)
+    _map_axes(ax, result)
     return _finish(fig, path)
 
 
-def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, label: str, fig: Figure) -> None:
+def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.ndarray] | None = None) -> Figure:
+    """Map of the von Mises stress on the worse surface (the one with the largest value) over (x, φ°), its
+    maximum marked, the contact boundary and, with ``[material] yield_stress``, the yield contour."""
+    fields = vertex_fields(result) if fields is None else fields
+    surface = max(("bottom", "middle", "top"), key=lambda k: float(np.max(fields[f"von_mises_{k}"])))
+    vm = np.asarray(fields[f"von_mises_{surface}"], float)
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    phi = np.degrees(s / sol.shell.radius)
+    tri = Triangulation(x, phi, sol.space.mesh.t.T)
+    fig = Figure(figsize=(6.4, 4.6))
+    ax = fig.add_subplot()
+    cs = ax.tricontourf(tri, vm, levels=21 if np.ptp(vm) > 0 else 1, cmap="plasma")
+    fig.colorbar(cs, ax=ax, label=f"von Mises stress, {surface} surface{_unit(result, 'pressure')}")
+    i = int(np.argmax(vm))
+    ax.plot(x[i], phi[i], "wx", ms=9, mew=2, label="maximum")
+    fy = getattr(result.case, "yield_stress", None)
+    if fy is not None and vm.min() < fy < vm.max():
+        ax.tricontour(tri, vm, levels=[fy], colors="w", linestyles="--", linewidths=1.2)
+        ax.plot([], [], "w--", label="yield stress")
+    _contact_outline(ax, result, fields)
+    legend = ax.legend(loc="upper right", fontsize=8, facecolor="0.5", framealpha=0.6)
+    for text in legend.get_texts():
+        text.set_color("w")
+    util = f", utilisation {_fmt(vm[i] / fy)}" if fy else ""
+    ax.set_title(f"von Mises stress ({surface} surface): max {_q(result, vm[i], 'pressure')}{util}\n"
+                 f"at x = {_q(result, x[i], 'length')}, φ = {_fmt(phi[i])}°", fontsize=10)
+    _map_axes(ax, result)
+    return _finish(fig, path)
+
+
+def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, label: str, fig: Figure,
+             length: str = "") -> None:
     from matplotlib import cm, colors
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
@@ -110,14 +178,14 @@ def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, 
     for k, setter in enumerate((ax.set_xlim, ax.set_ylim, ax.set_zlim)):
         setter(ctr[k] - 0.5 * span[k], ctr[k] + 0.5 * span[k])
     ax.set_box_aspect(tuple(span / span.max()))
-    from matplotlib.ticker import MaxNLocator
-
     for axis, k in ((ax.xaxis, 0), (ax.yaxis, 1), (ax.zaxis, 2)):
-        axis.set_major_locator(MaxNLocator(max(2, int(6 * span[k] / span.max()))))
-    ax.set_xlabel("X")
-    ax.set_ylabel("Y")
-    ax.set_zlabel("Z")
-    fig.colorbar(mapper, ax=ax, shrink=0.6, pad=0.12, label=label)
+        axis.set_major_locator(MaxNLocator(max(2, int(4 * span[k] / span.max()))))
+    ax.set_xlabel(f"X{length}")
+    ax.set_ylabel(f"Y{length}")
+    ax.set_zlabel(f"Z{length}")
+    ax.tick_params(labelsize=8)
+    ax.zaxis.labelpad = 8
+    fig.colorbar(mapper, ax=ax, shrink=0.6, pad=0.22, label=label)  # clear of the Z label
 
 
 def _refined(result, max_points: int):
@@ -143,14 +211,15 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
     pts = (sh.point(x, phi) + scale * sol.displacement(x, phi)).T
     t = r.t.T
     w = sol.evaluate(x, phi, ("w",))["w"]
-    panels = [("w", w, "viridis")]
+    panels = [("w", w, "viridis", f"w{_unit(result, 'length')}")]
     pressure = contact_vertex_fields(result).get("contact_pressure")
     if pressure is not None:
         from matplotlib.tri import LinearTriInterpolator
 
         mx, ms = sol.space.mesh.p
         interp = LinearTriInterpolator(Triangulation(mx, ms, sol.space.mesh.t.T), np.asarray(pressure, float))
-        panels.append(("contact pressure", np.ma.filled(interp(x, s), 0.0), "inferno"))
+        panels.append(("contact pressure", np.ma.filled(interp(x, s), 0.0), "inferno",
+                       f"contact pressure{_unit(result, 'pressure')}"))
     n = 60
     lines = [
         (np.full(n, sh.x_min), np.linspace(sh.alpha, sh.beta, n)),
@@ -159,9 +228,9 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
         (np.linspace(sh.x_min, sh.x_max, n), np.full(n, sh.beta)),
     ]
     fig = Figure(figsize=(6.0 * len(panels), 5.2))
-    for k, (label, vals, cmap) in enumerate(panels):
+    for k, (label, vals, cmap, bar) in enumerate(panels):
         ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
-        _surface(ax, pts, t, np.asarray(vals, float), cmap, label, fig)
+        _surface(ax, pts, t, np.asarray(vals, float), cmap, bar, fig, _unit(result, "length"))
         for lx, lp in lines:  # the undeformed boundary, for reference
             ax.plot(*sh.point(lx, lp), color="0.4", lw=0.8, ls="--")
         ax.view_init(elev=25, azim=-60)
@@ -200,11 +269,9 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     p = np.asarray(p, float)
     levels = 21 if np.ptp(p) > 0 else 1
     cs = ax.tricontourf(tri, p, levels=levels, cmap="inferno")
-    fig.colorbar(cs, ax=ax, label="contact pressure Λ/ω")
+    fig.colorbar(cs, ax=ax, label=f"contact pressure Λ/ω{_unit(result, 'pressure')}")
     status = fields.get("contact_status")
-    if status is not None and np.any(status == 1) and np.any(status != 1):
-        ax.tricontour(tri, (np.asarray(status) == 1).astype(float), levels=[0.5], colors="c", linewidths=1.5)
-        ax.plot([], [], "c-", label="contact boundary")
+    if _contact_outline(ax, result, fields):
         act = np.asarray(status) == 1
         ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
         ax.legend(loc="upper right", fontsize=8)
@@ -212,9 +279,8 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     xr, pr = _contact_box(fields, x, phi, h, math.degrees(h / sol.shell.radius))
     ax.set_xlim(*xr)
     ax.set_ylim(*pr)
-    ax.set_title(f"contact pressure: peak {_fmt(float(np.max(p)))}")
-    ax.set_xlabel("x")
-    ax.set_ylabel("φ (degrees)")
+    ax.set_title(f"contact pressure: peak {_q(result, float(np.max(p)), 'pressure')}")
+    _map_axes(ax, result)
     return _finish(fig, path)
 
 
@@ -260,9 +326,10 @@ def plot_pressure_profiles(
     for k, (label, (c, p)) in enumerate(lines.items()):
         ax = fig.add_subplot(1, 2, k + 1)
         ax.plot(c, p, "o-", ms=3)
-        ax.set_xlabel("φ (degrees)" if label.startswith("x") else "x")
-        ax.set_ylabel("nodal pressure Λ/ω")
-        ax.set_title(f"along {label}")
+        ax.set_xlabel("φ [deg]" if label.startswith("x") else f"x{_unit(result, 'length')}")
+        ax.set_ylabel(f"nodal pressure Λ/ω{_unit(result, 'pressure')}")
+        ax.xaxis.set_major_locator(MaxNLocator(6))
+        ax.set_title(f"along {with_unit(label, 'length', result.case.units) if label.startswith('x') else label}")
         ax.grid(True, alpha=0.3)
     return _finish(fig, path)
 
@@ -275,7 +342,8 @@ def run_figures(
 ) -> dict[str, bytes]:
     """All figures of one run as PNG bytes, by file name (contact figures only with contact);
     ``profile_x``/``profile_phi`` (degrees) choose the pressure-profile lines (default: through the peak)."""
-    out = {"deflection.png": plot_deflection(result), "deformed.png": plot_deformed(result)}
+    out = {"deflection.png": plot_deflection(result), "von_mises.png": plot_von_mises(result, fields=fields),
+           "deformed.png": plot_deformed(result)}
     for name, fig in (
         ("pressure.png", plot_pressure(result)),
         ("pressure_profiles.png", plot_pressure_profiles(result, x=profile_x, phi=profile_phi)),
