@@ -93,7 +93,17 @@ def _map_axes(ax, result) -> None:
     ax.set_xlabel(f"x{_unit(result, 'length')}")
     ax.set_ylabel("φ [deg]")
     ax.xaxis.set_major_locator(MaxNLocator(6))
-    ax.yaxis.set_major_locator(MaxNLocator(8, steps=[1, 1.5, 2, 2.5, 3, 5, 10]))
+    lo, hi = ax.get_ylim()
+    ax.yaxis.set_major_locator(_degree_locator(abs(hi - lo)))
+
+
+def _degree_locator(span: float, most: int = 8):
+    """Ticks on an angle axis at a round number of degrees (…, 5, 10, 15, 30, 45, 90, …), at most ``most`` intervals."""
+    from matplotlib.ticker import MultipleLocator
+
+    steps = [m * 10.0 ** e for e in range(-3, 3) for m in (1, 2, 5)] + [15.0, 30.0, 45.0, 90.0]
+    return MultipleLocator(min((d for d in sorted(steps) if span / d <= most and d not in (20.0, 50.0)),
+                               default=90.0))
 
 
 def _contact_outline(ax, result, fields: dict[str, np.ndarray] | None = None) -> bool:

@@ -39,7 +39,8 @@ td.num { text-align: right; font-family: ui-monospace, monospace; white-space: n
 td.unit { color: #555; white-space: nowrap; }
 table.headline td:first-child { font-weight: 600; }
 th { background: #f3f3f3; } .set { color: #a40; font-weight: bold; }
-figure { display: inline-block; margin: 0.5em; max-width: 100%; vertical-align: top; }
+figure { display: inline-block; margin: 0.5em 0; max-width: 100%; vertical-align: top; }
+figure.half { max-width: calc(50% - 0.5em); }
 img { max-width: 100%; height: auto; border: 1px solid #ddd; }
 pre { background: #f7f7f7; padding: 0.8em; white-space: pre-wrap; overflow-wrap: anywhere; font-size: 0.85em; }
 .warnings { border: 2px solid #c60; background: #fff4e5; padding: 0.4em 1em; margin: 1em 0; }
@@ -117,9 +118,13 @@ class _Unit(str):
 
 
 def image(name: str, png: bytes) -> str:
+    """A figure; maps (narrower than 800 px) take half the page, so that two stand side by side."""
     data = base64.b64encode(png).decode()
     alt = html.escape(name)
-    return f'<figure><img alt="{alt}" src="data:image/png;base64,{data}"><figcaption>{alt}</figcaption></figure>'
+    width = int.from_bytes(png[16:20], "big") if png[:8] == b"\x89PNG\r\n\x1a\n" else 0  # IHDR
+    cls = ' class="half"' if 0 < width < 800 else ""
+    return (f'<figure{cls}><img alt="{alt}" src="data:image/png;base64,{data}"><figcaption>{alt}</figcaption>'
+            "</figure>")
 
 
 def page(title: str, sections: Iterable[tuple[str, str] | tuple[str, str, int]]) -> str:
