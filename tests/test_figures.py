@@ -26,7 +26,8 @@ def panel():
 
 def _figures(result) -> dict:
     return {"deflection": plots.plot_deflection(result), "von_mises": plots.plot_von_mises(result),
-            "deformed": plots.plot_deformed(result), "pressure": plots.plot_pressure(result),
+            "deformed": plots.plot_deformed(result), "sections": plots.plot_sections(result),
+            "pressure": plots.plot_pressure(result),
             "profiles": plots.plot_pressure_profiles(result)}
 
 
@@ -71,3 +72,13 @@ def test_maps_show_the_contact_boundary_and_von_mises_of_the_worse_surface(panel
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert "yield stress" in labels and "maximum" in labels
     assert np.isfinite(s["stresses"][worst]["von_mises_max"])
+
+
+def test_sections_pass_through_the_largest_deflection(panel) -> None:
+    """The generator through the point of largest |w| reaches the summary's max |w| (vertex values), and the
+    ring section states its magnification."""
+    fig = plots.plot_sections(panel)
+    ring, gen = fig.axes[:2]
+    w = gen.get_lines()[0].get_ydata()
+    assert float(np.max(np.abs(w))) == pytest.approx(panel.summary()["max_abs_w"], rel=1e-3)
+    assert f"× {plots.exaggeration(panel):g}" in " ".join(t.get_text() for t in ring.get_legend().get_texts())

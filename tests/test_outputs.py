@@ -49,7 +49,7 @@ def summary(run_dir: Path) -> dict:
 def test_run_directory_files(run_dir: Path) -> None:
     names = {p.name for p in run_dir.iterdir()}
     assert names == {"summary.json", "fields.vtu", "results.npz", "deflection.png", "von_mises.png", "deformed.png",
-                     "report.html"}
+                     "sections.png", "report.html"}
 
 
 def test_vtu_fields(run_dir: Path, summary: dict) -> None:
@@ -108,7 +108,7 @@ def test_report_contains_summary_numbers(run_dir: Path, summary: dict) -> None:
     assert pre and json.loads(html.unescape(pre.group(1))) == summary
     # self-contained: figures are embedded, nothing is loaded from elsewhere
     imgs = re.findall(r'src="data:image/png;base64,([^"]+)"', text)
-    assert len(imgs) == 3 and all(base64.b64decode(b).startswith(PNG) for b in imgs)
+    assert len(imgs) == 4 and all(base64.b64decode(b).startswith(PNG) for b in imgs)
     assert "http://" not in text and "https://" not in text
     # inputs with the --set overrides marked
     assert "mesh.nx</span> (--set)" in text and "shell.radius" in text
@@ -273,4 +273,4 @@ def test_contact_run_outputs(contact_run: Path) -> None:
     text = (contact_run / "report.html").read_text()
     for v in (c["area"], c["force_magnitude"], c["peak_pressure"], *s["kkt"].values()):
         assert f">{v:.6g}<" in text, v
-    assert len(re.findall(r'src="data:image/png;base64,', text)) == 5
+    assert len(re.findall(r'src="data:image/png;base64,', text)) == 6

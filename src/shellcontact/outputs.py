@@ -27,6 +27,7 @@ RUN_FILES = (
     "deflection.png",
     "von_mises.png",
     "deformed.png",
+    "sections.png",
     "pressure.png",
     "pressure_profiles.png",
     "report.html",

@@ -248,6 +248,46 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
     return _finish(fig, path)
 
 
+def plot_sections(result, path: str | Path | None = None, scale: float | None = None) -> Figure:
+    """Two sections through the point of largest |w| (under the punch, with contact): the ring at that x,
+    undeformed and deformed (displacements × ``scale``, default ``exaggeration(result)``: the ovalisation),
+    and w along the generator at that φ (true size)."""
+    sol = result.solution
+    sh = sol.shell
+    scale = exaggeration(result) if scale is None else float(scale)
+    tri, w = evaluation_grid(result, "w")
+    i = int(np.argmax(np.abs(w)))
+    x0, phi0 = float(tri.x[i]), math.radians(float(tri.y[i]))
+    L = _unit(result, "length")
+    fig = Figure(figsize=(11.0, 4.6), layout="constrained")
+    ring, gen = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+    phi = np.linspace(sh.alpha, sh.beta, 361)
+    xs = np.full(phi.size, x0)
+    ref = sh.point(xs, phi)
+    cur = ref + scale * sol.displacement(xs, phi)
+    ring.plot(ref[1], ref[2], color="0.5", ls="--", lw=1.0, label="undeformed")
+    ring.plot(cur[1], cur[2], color="C0", lw=1.8, label=f"deformed, displacements × {scale:g}")
+    ring.plot(*cur[1:, np.argmin(np.abs(phi - phi0))], "k+", ms=10, mew=1.5, label=f"φ = {_fmt(math.degrees(phi0))}°")
+    ring.set_aspect("equal", adjustable="datalim")
+    ring.set_xlabel(f"y{L}")
+    ring.set_ylabel(f"z{L}")
+    ring.set_title(f"ring section at x = {_q(result, x0, 'length')}", fontsize=10)
+    ring.legend(loc="best", fontsize=8)
+    ring.grid(True, alpha=0.3)
+    x = np.linspace(sh.x_min, sh.x_max, 401)
+    wx = sol.evaluate(x, np.full(x.size, phi0), ("w",))["w"]
+    gen.plot(x, wx, color="C0", lw=1.8)
+    gen.axhline(0.0, color="0.5", lw=0.8, ls="--")
+    gen.set_xlabel(f"x{L}")
+    gen.set_ylabel(f"w, outward positive{L}")
+    gen.set_title(f"w along the generator φ = {_fmt(math.degrees(phi0))}° (true size)", fontsize=10)
+    gen.xaxis.set_major_locator(MaxNLocator(6))
+    gen.grid(True, alpha=0.3)
+    for ax in (ring, gen):
+        ax.xaxis.set_major_locator(MaxNLocator(6))
+    return _finish(fig, path)
+
+
 def _contact_box(fields: dict[str, np.ndarray], x: np.ndarray, phi: np.ndarray, hx: float, hphi: float):
     """The candidate zone, narrowed to the contact region (padded by its size or 4 cells) when smaller."""
     status = fields.get("contact_status")
@@ -353,7 +393,7 @@ def run_figures(
     """All figures of one run as PNG bytes, by file name (contact figures only with contact);
     ``profile_x``/``profile_phi`` (degrees) choose the pressure-profile lines (default: through the peak)."""
     out = {"deflection.png": plot_deflection(result), "von_mises.png": plot_von_mises(result, fields=fields),
-           "deformed.png": plot_deformed(result)}
+           "deformed.png": plot_deformed(result), "sections.png": plot_sections(result)}
     for name, fig in (
         ("pressure.png", plot_pressure(result)),
         ("pressure_profiles.png", plot_pressure_profiles(result, x=profile_x, phi=profile_phi)),
