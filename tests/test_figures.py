@@ -82,3 +82,12 @@ def test_sections_pass_through_the_largest_deflection(panel) -> None:
     w = gen.get_lines()[0].get_ydata()
     assert float(np.max(np.abs(w))) == pytest.approx(panel.summary()["max_abs_w"], rel=1e-3)
     assert f"× {plots.exaggeration(panel):g}" in " ".join(t.get_text() for t in ring.get_legend().get_texts())
+
+
+def test_one_colour_scale_per_quantity(panel) -> None:
+    """w and the contact pressure have the same colour range on the maps and on the 3D views."""
+    deformed = plots.plot_deformed(panel)
+    bars = [ax for ax in deformed.axes if ax.name != "3d"]
+    assert len(bars) == 2
+    for fig, bar in ((plots.plot_deflection(panel), bars[0]), (plots.plot_pressure(panel), bars[1])):
+        assert fig.axes[1].get_ylim() == pytest.approx(bar.get_ylim(), rel=1e-12, abs=0.0), fig.axes[0].get_title()

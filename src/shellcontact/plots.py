@@ -78,6 +78,14 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}"
 
 
+def _levels(values: np.ndarray, lo: float | None = None) -> np.ndarray | int:
+    """21 colour bands from the smallest (or ``lo``) to the largest value exactly, so that the 3D views can use the
+    same scale (one colour scale per quantity across the figures of a run)."""
+    lo = float(np.min(values)) if lo is None else lo
+    hi = float(np.max(values))
+    return np.linspace(lo, hi, 22) if hi > lo else 1
+
+
 def _unit(result, kind: str) -> str:
     """`` [unit]`` of a kind of quantity in the case's ``[units] system`` (units.py), for axis and colour-bar labels."""
     return bracket(kind, getattr(result.case, "units", "SI"))
@@ -126,7 +134,7 @@ def plot_deflection(result, path: str | Path | None = None) -> Figure:
     tri, w = evaluation_grid(result, "w")
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
-    levels = 21 if np.ptp(w) > 0 else 1
+    levels = _levels(w)
     cs = ax.tricontourf(tri, w, levels=levels, cmap="viridis")
     fig.colorbar(cs, ax=ax, label=f"w, outward positive{_unit(result, 'length')}")
     _probes(ax, result)
@@ -151,7 +159,7 @@ def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.
     tri = Triangulation(x, phi, sol.space.mesh.t.T)
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
-    cs = ax.tricontourf(tri, vm, levels=21 if np.ptp(vm) > 0 else 1, cmap="plasma")
+    cs = ax.tricontourf(tri, vm, levels=_levels(vm), cmap="plasma")
     fig.colorbar(cs, ax=ax, label=f"von Mises stress, {surface} surface{_unit(result, 'pressure')}")
     i = int(np.argmax(vm))
     ax.plot(x[i], phi[i], "wx", ms=9, mew=2, label="maximum")
@@ -171,12 +179,12 @@ def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.
 
 
 def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, label: str, fig: Figure,
-             length: str = "") -> None:
+             length: str = "", limits: tuple[float, float] | None = None) -> None:
     from matplotlib import cm, colors
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     face = values[t].mean(axis=1)
-    lo, hi = float(np.min(face)), float(np.max(face))
+    lo, hi = (float(np.min(face)), float(np.max(face))) if limits is None else limits
     norm = colors.Normalize(lo, hi if hi > lo else lo + 1.0)
     mapper = cm.ScalarMappable(norm=norm, cmap=cmap)
     rgba = mapper.to_rgba(face)
@@ -221,7 +229,8 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
     pts = (sh.point(x, phi) + scale * sol.displacement(x, phi)).T
     t = r.t.T
     w = sol.evaluate(x, phi, ("w",))["w"]
-    panels = [("w", w, "viridis", f"w{_unit(result, 'length')}")]
+    _, w_map = evaluation_grid(result, "w")  # the colour scale of deflection.png: one scale per quantity
+    panels = [("w", w, "viridis", f"w{_unit(result, 'length')}", (float(w_map.min()), float(w_map.max())))]
     pressure = contact_vertex_fields(result).get("contact_pressure")
     if pressure is not None:
         from matplotlib.tri import LinearTriInterpolator
@@ -229,7 +238,7 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
         mx, ms = sol.space.mesh.p
         interp = LinearTriInterpolator(Triangulation(mx, ms, sol.space.mesh.t.T), np.asarray(pressure, float))
         panels.append(("contact pressure", np.ma.filled(interp(x, s), 0.0), "inferno",
-                       f"contact pressure{_unit(result, 'pressure')}"))
+                       f"contact pressure{_unit(result, 'pressure')}", (0.0, float(np.max(pressure)))))
     n = 60
     lines = [
         (np.full(n, sh.x_min), np.linspace(sh.alpha, sh.beta, n)),
@@ -238,9 +247,9 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
         (np.linspace(sh.x_min, sh.x_max, n), np.full(n, sh.beta)),
     ]
     fig = Figure(figsize=(6.0 * len(panels), 5.2))
-    for k, (label, vals, cmap, bar) in enumerate(panels):
+    for k, (label, vals, cmap, bar, limits) in enumerate(panels):
         ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
-        _surface(ax, pts, t, np.asarray(vals, float), cmap, bar, fig, _unit(result, "length"))
+        _surface(ax, pts, t, np.asarray(vals, float), cmap, bar, fig, _unit(result, "length"), limits)
         for lx, lp in lines:  # the undeformed boundary, for reference
             ax.plot(*sh.point(lx, lp), color="0.4", lw=0.8, ls="--")
         ax.view_init(elev=25, azim=-60)
@@ -317,7 +326,7 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     fig = Figure(figsize=(6.4, 4.8))
     ax = fig.add_subplot()
     p = np.asarray(p, float)
-    levels = 21 if np.ptp(p) > 0 else 1
+    levels = _levels(p, 0.0)
     cs = ax.tricontourf(tri, p, levels=levels, cmap="inferno")
     fig.colorbar(cs, ax=ax, label=f"contact pressure Λ/ω{_unit(result, 'pressure')}")
     status = fields.get("contact_status")
