@@ -136,7 +136,7 @@ def plot_deflection(result, path: str | Path | None = None) -> Figure:
     ax = fig.add_subplot()
     levels = _levels(w)
     cs = ax.tricontourf(tri, w, levels=levels, cmap="viridis")
-    fig.colorbar(cs, ax=ax, label=f"w, outward positive{_unit(result, 'length')}")
+    fig.colorbar(cs, ax=ax, label=f"w, outward positive{_unit(result, 'length')}", ticks=MaxNLocator(8))
     _probes(ax, result)
     if _contact_outline(ax, result) or getattr(result.case, "probes", None):
         ax.legend(loc="upper right", fontsize=8)
@@ -160,7 +160,8 @@ def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
     cs = ax.tricontourf(tri, vm, levels=_levels(vm), cmap="plasma")
-    fig.colorbar(cs, ax=ax, label=f"von Mises stress, {surface} surface{_unit(result, 'pressure')}")
+    fig.colorbar(cs, ax=ax, label=f"von Mises stress, {surface} surface{_unit(result, 'pressure')}",
+                 ticks=MaxNLocator(8))
     i = int(np.argmax(vm))
     ax.plot(x[i], phi[i], "wx", ms=9, mew=2, label="maximum")
     fy = getattr(result.case, "yield_stress", None)
@@ -328,7 +329,7 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     p = np.asarray(p, float)
     levels = _levels(p, 0.0)
     cs = ax.tricontourf(tri, p, levels=levels, cmap="inferno")
-    fig.colorbar(cs, ax=ax, label=f"contact pressure Λ/ω{_unit(result, 'pressure')}")
+    fig.colorbar(cs, ax=ax, label=f"contact pressure Λ/ω{_unit(result, 'pressure')}", ticks=MaxNLocator(8))
     status = fields.get("contact_status")
     if _contact_outline(ax, result, fields):
         act = np.asarray(status) == 1

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from .files import atomic_write_text, json_text
-from .units import bracket, label
+from .units import bracket, label, with_unit
 
 CSS = """
 body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; padding: 0 1em; color: #222;
@@ -244,11 +244,10 @@ def _headline(s: Mapping[str, Any]) -> str:
         rows.append([f"{who}punch travel", c["punch_travel"], u("length"), control.get(c.get("mode"), "")])
         zone = c.get("zone")
         if isinstance(zone, Mapping):
-            note = f"where the gap is below {_g(zone['gap_tolerance'])} {label('length', system)}".rstrip()
+            note = f"where the gap is below {with_unit(_g(zone['gap_tolerance']), 'length', system)}"
             if zone.get("x") and zone.get("phi"):
                 (x0, x1), (p0, p1) = zone["x"], zone["phi"]
-                note += (f": x from {_g(x0)} to {_g(x1)} {label('length', system)}".rstrip()
-                         + f", φ from {_g(p0)}° to {_g(p1)}°")
+                note += f": x from {_g(x0)} to {with_unit(_g(x1), 'length', system)}, φ from {_g(p0)}° to {_g(p1)}°"
             rows.append([f"{who}contact zone area", zone["area"], u("area"), note])
         rows.append([f"{who}peak contact pressure", c["peak_pressure"], u("pressure"),
                      "nodal Λ/ω; grows under refinement at a line force"])
@@ -256,7 +255,7 @@ def _headline(s: Mapping[str, Any]) -> str:
     st = s.get("stresses") or {}
     if st:
         name, worst = max(st.items(), key=lambda kv: kv[1]["von_mises_max"])
-        at = f"{name} surface, x = {fmt(worst['at']['x'])} {label('length', system)}, φ = {fmt(worst['at']['phi'])}°"
+        at = f"{name} surface, x = {with_unit(fmt(worst['at']['x']), 'length', system)}, φ = {fmt(worst['at']['phi'])}°"
         rows.append(["max von Mises stress", worst["von_mises_max"], u("pressure"), at.strip()])
         if "utilisation_max" in worst:
             util = max(v.get("utilisation_max", 0.0) for v in st.values())
