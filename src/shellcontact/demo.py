@@ -113,7 +113,9 @@ def _demo(out: Path, quiet: bool) -> tuple[str, dict[str, float], float, int, st
         warnings += len(result.warnings())  # each already on stderr (analysis logs them as they arise)
     for method, result in results.items():
         (out / method).mkdir()
-        write_run_files(result, out / method, figures=(method == "active-set"), report=(method == "active-set"))
+        summary = {**result.summary(), "case_file": str(demo_case_path())}  # the reports name their case file
+        write_run_files(result, out / method, summary, figures=(method == "active-set"),
+                        report=(method == "active-set"))
     exact = results["active-set"].solution.U
     dual = results["dual"].solution.U
     pen = results["penalty"].solution.U

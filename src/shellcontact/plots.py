@@ -180,7 +180,7 @@ def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.
 
 
 def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, label: str, fig: Figure,
-             length: str = "", limits: tuple[float, float] | None = None) -> None:
+             length: str = "", limits: tuple[float, float] | None = None, blank_zero: bool = False) -> None:
     from matplotlib import cm, colors
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
@@ -189,6 +189,8 @@ def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, 
     norm = colors.Normalize(lo, hi if hi > lo else lo + 1.0)
     mapper = cm.ScalarMappable(norm=norm, cmap=cmap)
     rgba = mapper.to_rgba(face)
+    if blank_zero:  # off contact: light grey, so that the shell stays visible around the coloured patch
+        rgba[face <= 0.0] = (0.85, 0.85, 0.85, 1.0)
     poly = Poly3DCollection(pts[t], facecolors=rgba, edgecolors=rgba, linewidths=0.3)  # edges hide seams
     ax.add_collection3d(poly)
     lo3, hi3 = pts.min(axis=0), pts.max(axis=0)
@@ -250,7 +252,8 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
     fig = Figure(figsize=(6.0 * len(panels), 5.2))
     for k, (label, vals, cmap, bar, limits) in enumerate(panels):
         ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
-        _surface(ax, pts, t, np.asarray(vals, float), cmap, bar, fig, _unit(result, "length"), limits)
+        _surface(ax, pts, t, np.asarray(vals, float), cmap, bar, fig, _unit(result, "length"), limits,
+                 blank_zero=label == "contact pressure")
         for lx, lp in lines:  # the undeformed boundary, for reference
             ax.plot(*sh.point(lx, lp), color="0.4", lw=0.8, ls="--")
         ax.view_init(elev=25, azim=-60)
