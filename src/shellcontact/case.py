@@ -389,6 +389,32 @@ def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:
     return case_from_dict(data, source=Path(path))
 
 
+#: the kind of quantity (units.py) of each schema unit
+_UNIT_KINDS = {"length": "length", "force": "force", "force/length": "force/length", "force/length²": "pressure",
+               "length/pressure": "length/pressure"}
+
+
+def key_kind(path: str) -> str | None:
+    """The kind of quantity (units.KINDS) of the case-file key ``path`` (e.g. ``punch.0.indentation`` → length),
+    or None for a dimensionless or unknown key; array indices are skipped, a punch's key may be its shape's."""
+    table: Table | None = CASE
+    key: Key | None = None
+    for part in (p for p in path.split(".") if not p.isdigit()):
+        if table is None:
+            return None
+        try:
+            key = table.key(part)
+        except KeyError:
+            shapes = [k for shape in SHAPES.values() for k in shape.keys if k.name == part] if table is PUNCH else []
+            if not shapes:
+                return None
+            key = shapes[0]
+        table = key.table
+    if key is None:
+        return None
+    return "angle" if key.angle else _UNIT_KINDS.get(key.unit)
+
+
 # -- docs/case-file.md: the key tables between the markers <!-- keys: NAME --> and <!-- /keys --> ---------------
 def document(text: str) -> str:
     """``text`` with every marked key table regenerated from the schema (``DOC_TABLES``)."""

@@ -418,24 +418,34 @@ def run_figures(
 
 # -- study figures -------------------------------------------------------------------------------------
 SWEEP_PANELS = (
-    ("force", "contact force |F|"),
-    ("area", "contact area"),
-    ("peak_pressure", "peak pressure"),
-    ("energy", "strain energy"),
-    ("max_abs_w", "max |w|"),
+    ("force", "contact force |F|", "force"),
+    ("area", "contact area", "area"),
+    ("peak_pressure", "peak pressure", "pressure"),
+    ("energy", "strain energy", "energy"),
+    ("max_abs_w", "max |w|", "length"),
 )
 
 
-def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None) -> Figure:
-    """Each result column (force, area, peak pressure, energy, max|w|; per punch) against the parameter."""
+def _param_label(param: str, system: str) -> str:
+    """The swept key with its unit (from the case-file schema)."""
+    from .case import key_kind
+
+    kind = key_kind(param)
+    return param + (bracket(kind, system) if kind else "")
+
+
+def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None,
+               system: str = "SI") -> Figure:
+    """Each result column (force, area, peak pressure, energy, max|w|; per punch) against the parameter;
+    ``system``: the case's ``[units] system``, for the axis labels."""
     xs = np.array([r[param] for r in rows], float)
     panels = []
-    for key, label in SWEEP_PANELS:
+    for key, label, kind in SWEEP_PANELS:
         cols = [c for c in rows[0] if c == key or c.startswith(key + "_")] if rows else []
         cols = [c for c in cols if not (key == "force" and c.startswith("force_"))] or cols
         cols = [c for c in cols if all(isinstance(r.get(c), (int, float)) for r in rows)]
         if cols:
-            panels.append((label, cols))
+            panels.append((label + bracket(kind, system), cols))
     n = len(panels)
     ncol = min(n, 3)
     nrow = math.ceil(n / ncol)
@@ -446,14 +456,16 @@ def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | No
             ax.plot(xs, [r[c] for r in rows], "o-", ms=4, label=c)
         if len(cols) > 1:
             ax.legend(fontsize=8)
-        ax.set_xlabel(param)
+        ax.set_xlabel(_param_label(param, system))
         ax.set_ylabel(label)
+        ax.xaxis.set_major_locator(MaxNLocator(5))
         ax.grid(True, alpha=0.3)
     fig.suptitle(f"sweep over {param}")
     return _finish(fig, path)
 
 
-def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None) -> Figure | None:
+def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None,
+                           system: str = "SI") -> Figure | None:
     """Contact force against the swept parameter (None when the rows have no force column)."""
     cols = [c for c in (rows[0] if rows else {}) if c == "force" or (c.startswith("force_") and c[6:].isdigit())]
     if not cols:
@@ -463,8 +475,9 @@ def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str
     xs = np.array([r[param] for r in rows], float)
     for c in cols:
         ax.plot(xs, [r[c] for r in rows], "o-", label=c)
-    ax.set_xlabel(param)
-    ax.set_ylabel("contact force |F| on the shell")
+    ax.set_xlabel(_param_label(param, system))
+    ax.set_ylabel(f"contact force |F| on the shell{bracket('force', system)}")
+    ax.xaxis.set_major_locator(MaxNLocator(6))
     ax.set_title("force–indentation" if "indentation" in param else f"force against {param}")
     ax.grid(True, alpha=0.3)
     if len(cols) > 1:
@@ -472,7 +485,7 @@ def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str
     return _finish(fig, path)
 
 
-def plot_convergence(rows: Sequence[dict[str, Any]], path: str | Path | None = None) -> Figure:
+def plot_convergence(rows: Sequence[dict[str, Any]], path: str | Path | None = None, system: str = "SI") -> Figure:
     """Log–log errors against the finest level versus h (levels except the finest)."""
     fig = Figure(figsize=(6, 4.5))
     ax = fig.add_subplot()
@@ -488,7 +501,7 @@ def plot_convergence(rows: Sequence[dict[str, Any]], path: str | Path | None = N
         h = np.array([r["h"] for r in ref])
         for order, style in ((2, ":"), (4, "--")):
             ax.loglog(h, ref[0][cols[0]] * (h / h[0]) ** order, "k" + style, lw=0.8, label=f"O(h{'²⁴'[order // 4]})")
-    ax.set_xlabel("h (largest edge in (x, s))")
+    ax.set_xlabel(f"h, the largest edge in (x, s){bracket('length', system)}")
     ax.set_ylabel("relative error against the finest level")
     ax.set_title("convergence under nested refinement")
     ax.grid(True, which="both", alpha=0.3)

@@ -399,8 +399,9 @@ def _write_sweep_files(res: SweepResult, out: Path, param: str, figures: bool, s
     if figures:
         from . import plots
 
-        pngs["sweep.png"] = plots.png_bytes(plots.plot_sweep(res.rows, param))
-        fi = plots.plot_force_indentation(res.rows, param)
+        system = res.summaries[0].get("unit_system", "SI") if res.summaries else "SI"
+        pngs["sweep.png"] = plots.png_bytes(plots.plot_sweep(res.rows, param, system=system))
+        fi = plots.plot_force_indentation(res.rows, param, system=system)
         if fi is not None:
             pngs["force_indentation.png"] = plots.png_bytes(fi)
         for name, data in pngs.items():
@@ -538,7 +539,7 @@ def _convergence(case: Case, levels: int, out: Path | None, progress: Progress |
         if figures:
             from . import plots
 
-            png = plots.png_bytes(plots.plot_convergence(rows))
+            png = plots.png_bytes(plots.plot_convergence(rows, system=case.units))
             atomic_write_bytes(out / "convergence.png", png)
             res.files["convergence.png"] = out / "convergence.png"
         from .report import write_study_report
