@@ -11,7 +11,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from shellcontact import plots
 from shellcontact.analysis import solve
-from shellcontact.case import load_case
+from shellcontact.case import key_kind, load_case
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -96,13 +96,16 @@ def test_one_colour_scale_per_quantity(panel) -> None:
 def test_study_figures_carry_units() -> None:
     """The swept key's unit comes from the case-file schema, the results' from the case's system."""
     rows = [{"punch.0.indentation": d, "force": 1e3 * d, "area": d, "energy": d, "max_abs_w": d} for d in (1.0, 2.0)]
-    fig = plots.plot_sweep(rows, "punch.0.indentation", system="mm")
+    kind = key_kind("punch.0.indentation")
+    fig = plots.plot_sweep(rows, "punch.0.indentation", system="mm", param_kind=kind)
     labels = {ax.get_ylabel(): ax.get_xlabel() for ax in fig.axes}
     assert set(labels.values()) == {"punch.0.indentation [mm]"}
     assert set(labels) == {"contact force |F| [N]", "contact area [mm²]", "strain energy [N·mm]", "max |w| [mm]"}
-    ax = plots.plot_force_indentation(rows, "punch.0.indentation", system="SI").axes[0]
+    ax = plots.plot_force_indentation(rows, "punch.0.indentation", system="SI", param_kind=kind).axes[0]
     assert ax.get_xlabel() == "punch.0.indentation [m]" and ax.get_ylabel().endswith("[N]")
     counts = [{"mesh.nx": n, "energy": 1.0 / n} for n in (4, 8)]
+    assert key_kind("mesh.nx") is None and key_kind("loads.normal") == "pressure"
+    assert key_kind("probes.0.phi") == "angle"
     assert plots.plot_sweep(counts, "mesh.nx").axes[0].get_xlabel() == "mesh.nx"  # a count has no unit
     conv = [{"h": h, "error_force": h**2} for h in (0.1, 0.05, 0.025)]
     assert plots.plot_convergence(conv, system="mm").axes[0].get_xlabel().endswith("[mm]")

@@ -426,18 +426,15 @@ SWEEP_PANELS = (
 )
 
 
-def _param_label(param: str, system: str) -> str:
-    """The swept key with its unit (from the case-file schema)."""
-    from .case import key_kind
-
-    kind = key_kind(param)
+def _param_label(param: str, system: str, kind: str | None) -> str:
+    """The swept key with its unit (``kind``: its kind of quantity, ``case.key_kind``)."""
     return param + (bracket(kind, system) if kind else "")
 
 
 def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None,
-               system: str = "SI") -> Figure:
+               system: str = "SI", param_kind: str | None = None) -> Figure:
     """Each result column (force, area, peak pressure, energy, max|w|; per punch) against the parameter;
-    ``system``: the case's ``[units] system``, for the axis labels."""
+    ``system``: the case's ``[units] system``, ``param_kind``: the swept key's kind of quantity (axis labels)."""
     xs = np.array([r[param] for r in rows], float)
     panels = []
     for key, label, kind in SWEEP_PANELS:
@@ -456,7 +453,7 @@ def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | No
             ax.plot(xs, [r[c] for r in rows], "o-", ms=4, label=c)
         if len(cols) > 1:
             ax.legend(fontsize=8)
-        ax.set_xlabel(_param_label(param, system))
+        ax.set_xlabel(_param_label(param, system, param_kind))
         ax.set_ylabel(label)
         ax.xaxis.set_major_locator(MaxNLocator(5))
         ax.grid(True, alpha=0.3)
@@ -465,7 +462,7 @@ def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | No
 
 
 def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None,
-                           system: str = "SI") -> Figure | None:
+                           system: str = "SI", param_kind: str | None = None) -> Figure | None:
     """Contact force against the swept parameter (None when the rows have no force column)."""
     cols = [c for c in (rows[0] if rows else {}) if c == "force" or (c.startswith("force_") and c[6:].isdigit())]
     if not cols:
@@ -475,7 +472,7 @@ def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str
     xs = np.array([r[param] for r in rows], float)
     for c in cols:
         ax.plot(xs, [r[c] for r in rows], "o-", label=c)
-    ax.set_xlabel(_param_label(param, system))
+    ax.set_xlabel(_param_label(param, system, param_kind))
     ax.set_ylabel(f"contact force |F| on the shell{bracket('force', system)}")
     ax.xaxis.set_major_locator(MaxNLocator(6))
     ax.set_title("force–indentation" if "indentation" in param else f"force against {param}")

@@ -25,7 +25,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
-from .case import Case, case_from_dict
+from .case import Case, case_from_dict, key_kind
 from .errors import InputError
 from .files import atomic_write_bytes, atomic_write_text, check_output_dir, write_json
 from .overrides import apply_overrides, split_path
@@ -400,8 +400,9 @@ def _write_sweep_files(res: SweepResult, out: Path, param: str, figures: bool, s
         from . import plots
 
         system = res.summaries[0].get("unit_system", "SI") if res.summaries else "SI"
-        pngs["sweep.png"] = plots.png_bytes(plots.plot_sweep(res.rows, param, system=system))
-        fi = plots.plot_force_indentation(res.rows, param, system=system)
+        kind = key_kind(param)
+        pngs["sweep.png"] = plots.png_bytes(plots.plot_sweep(res.rows, param, system=system, param_kind=kind))
+        fi = plots.plot_force_indentation(res.rows, param, system=system, param_kind=kind)
         if fi is not None:
             pngs["force_indentation.png"] = plots.png_bytes(fi)
         for name, data in pngs.items():
