@@ -229,14 +229,15 @@ def test_demo(tmp_path: Path) -> None:
 
 def test_warnings_reach_stderr_the_closing_line_and_the_top_of_the_report(tmp_path: Path) -> None:
     """A yield stress far below the roof's stresses: the 'beyond yield' warning is printed on stderr (also
-    with --quiet), counted in the closing line, and shown in a box before everything else in report.html."""
+    with --quiet), counted in the closing line, and shown in a box in report.html right after the headline results
+    (the case, the results table, the warnings, then the figures and details)."""
     run = ["run", CASE, *SMALL, "--set", "material.yield_stress=1.0", "--no-figures"]
     r = cli(*run, "-o", "out", cwd=tmp_path)
     assert r.stderr.count("warning: ") == 1 and "beyond yield" in r.stderr
     assert "(1 warning, see above)" in r.stdout.splitlines()[-1]
     report = (tmp_path / "out" / "report.html").read_text()
-    assert report.index('class="warnings"') < report.index("<h2>Run</h2>")
-    assert "beyond yield" in report[report.index('class="warnings"'):report.index("<h2>Run</h2>")]
+    assert report.index("<h2>Results</h2>") < report.index('class="warnings"') < report.index("<h2>Details</h2>")
+    assert "beyond yield" in report[report.index('class="warnings"'):report.index("<h2>Details</h2>")]
     q = cli(*run, "-o", "quiet", "--quiet", cwd=tmp_path)
     assert "beyond yield" in q.stderr and q.stdout == ""
     # and nothing of the kind without a reason

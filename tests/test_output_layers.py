@@ -14,16 +14,21 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "shellcontact"
 
 #: the package modules each output module may import (and nothing else of the package); ``results``
-#: (the solution's post-processing, below the output layer) only for its list of surfaces
+#: (the solution's post-processing, below the output layer) only for its list of surfaces; ``units``
+#: (unit labels, a leaf that imports nothing of the package) for the labels of figures, tables and summary
 ALLOWED = {
     "fields": {"results"},
     "files": {"errors"},
     "writers": {"fields", "files"},
-    "plots": {"fields", "files"},
-    "report": {"files"},
+    "plots": {"fields", "files", "units"},
+    "report": {"files", "units"},
     "transaction": {"errors", "files"},
-    "outputs": {"fields", "files", "transaction", "writers", "plots", "report"},
+    "outputs": {"fields", "files", "transaction", "writers", "plots", "report", "units"},
 }
+
+
+def test_units_is_a_leaf() -> None:
+    assert package_imports(PACKAGE / "units.py") == set()
 
 #: the only modules that write a run directory
 OUTPUTS_IMPORTERS = {"analysis", "cli", "demo"}

@@ -48,7 +48,8 @@ def summary(run_dir: Path) -> dict:
 
 def test_run_directory_files(run_dir: Path) -> None:
     names = {p.name for p in run_dir.iterdir()}
-    assert names == {"summary.json", "fields.vtu", "results.npz", "deflection.png", "deformed.png", "report.html"}
+    assert names == {"summary.json", "fields.vtu", "results.npz", "deflection.png", "von_mises.png", "deformed.png",
+                     "sections.png", "report.html"}
 
 
 def test_vtu_fields(run_dir: Path, summary: dict) -> None:
@@ -107,7 +108,7 @@ def test_report_contains_summary_numbers(run_dir: Path, summary: dict) -> None:
     assert pre and json.loads(html.unescape(pre.group(1))) == summary
     # self-contained: figures are embedded, nothing is loaded from elsewhere
     imgs = re.findall(r'src="data:image/png;base64,([^"]+)"', text)
-    assert len(imgs) == 2 and all(base64.b64decode(b).startswith(PNG) for b in imgs)
+    assert len(imgs) == 4 and all(base64.b64decode(b).startswith(PNG) for b in imgs)
     assert "http://" not in text and "https://" not in text
     # inputs with the --set overrides marked
     assert "mesh.nx</span> (--set)" in text and "shell.radius" in text
@@ -272,4 +273,25 @@ def test_contact_run_outputs(contact_run: Path) -> None:
     text = (contact_run / "report.html").read_text()
     for v in (c["area"], c["force_magnitude"], c["peak_pressure"], *s["kkt"].values()):
         assert f">{v:.6g}<" in text, v
-    assert len(re.findall(r'src="data:image/png;base64,', text)) == 4
+    assert len(re.findall(r'src="data:image/png;base64,', text)) == 6
+
+
+def test_report_opens_with_the_case_and_a_headline_table_with_units(contact_run: Path) -> None:
+    """The case in one paragraph (from the case file), then the headline results with their units."""
+    s = json.loads((contact_run / "summary.json").read_text())
+    text = (contact_run / "report.html").read_text()
+    case = text[text.index("<h2>The case</h2>"):text.index("<h2>Results</h2>")]
+    for words in ("cylindrical panel of radius 1 m", "φ from 60° to 120°", "thickness 0.01 m", "E = 2.1e+11 Pa",
+                  "x_min, x_max, φ_min, φ_max clamped", "a sphere of radius 2 m", "pressed 0.01 m past first contact",
+                  f"{s['elements']} triangles", "active-set method", "Units: N, m, Pa"):
+        assert words in case, words
+    head = text[text.index("<h2>Results</h2>"):text.index("<h2>Warnings</h2>")]
+    c = s["contact"][0]
+    rows = {m.group(1): (m.group(2), m.group(3)) for m in re.finditer(
+        r'<tr><td>([^<]+)</td><td class="num">([^<]+)</td><td class="unit">([^<]*)</td>', head)}
+    assert rows["total normal force"] == (f"{c['total_normal_force']:.6g}", "N")
+    assert rows["contact zone area"] == (f"{c['zone']['area']:.6g}", "m²")
+    assert rows["peak contact pressure"] == (f"{c['peak_pressure']:.6g}", "Pa")
+    assert rows["max deflection |w|"] == (f"{s['max_abs_w']:.6g}", "m")
+    assert rows["max von Mises stress"] == (f"{max(v['von_mises_max'] for v in s['stresses'].values()):.6g}", "Pa")
+    assert rows["equilibrium residual"][0] == f"{s['equilibrium']['relative_residual']:.6g}"

@@ -213,7 +213,7 @@ def test_full_tmpfs(tmp_path: Path, previous: Path) -> None:
     """A real full disk: a tmpfs holding a previous result and 32 KiB of free room, too little for a run."""
     disk = tmp_path / "disk"
     disk.mkdir()
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(disk)], capture_output=True).returncode:
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(disk)], capture_output=True).returncode:
         pytest.skip("cannot mount a tmpfs here (needs root)")
     try:
         out, before = copy_of(previous, disk)

@@ -44,6 +44,7 @@ from .solvers.screening import factorize_screened, solve_screened
 from .solvers.substructure import MIN_UNKNOWNS
 from .spaces import ShellSpace
 from .supports import Reduction, edge_constrained_dofs
+from .units import summary_units
 
 KKT_KEYS = ("stationarity", "penetration", "dual_feasibility", "complementarity", "duality_gap")
 
@@ -351,6 +352,8 @@ class Result:
         out["warnings"] = self.warnings()
         out["backend"] = self.info.get("backend")
         out["timings"] = dict(self.timings)
+        out["unit_system"] = self.case.units
+        out["units"] = summary_units(out, self.case.units)
         return out
 
 

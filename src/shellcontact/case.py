@@ -33,6 +33,7 @@ from .punches import PUNCH, SHAPES, ZONE, PunchSpec, parse_punches
 from .schema import Key, Table, check_unknown
 from .solvers.methods import METHODS
 from .supports import SUPPORTS, Supports
+from .units import SYSTEMS
 
 _NUMBER_OR_FUNCTION = "string `\"module:function\"`: a function t(x, phi) (NumPy, φ in radians)"
 #: the allowed column of every modulus (material.check_stiffness_range)
@@ -169,6 +170,12 @@ SOLVER = Table("solver", (
         choices=("auto", True, False), default=SolverOptions.substructure),
 ))
 
+UNITS = Table("units", (
+    Key("system", "choice", "the units the case file's numbers are in: `\"SI\"` (N, m, Pa), `\"mm\"` (N, mm, MPa) "
+        "or `\"none\"` (any consistent units, unlabelled). Only labels: no number is ever converted",
+        choices=tuple(SYSTEMS), default="SI"),
+))
+
 #: the case file's top-level tables; ``[shell]`` is required
 CASE = Table("", (
     Key("shell", "table", "geometry (and an isotropic material)", table=SHELL),
@@ -179,13 +186,14 @@ CASE = Table("", (
     Key("probes", "tables", "points reported in the summary", table=PROBE, default=()),
     Key("solver", "table", "solver options", table=SOLVER, default=None),
     Key("punch", "tables", "rigid punches", table=PUNCH, default=()),
+    Key("units", "table", "the unit system, for the labels of every output", table=UNITS, default=None),
 ))
 
 #: the tables of docs/case-file.md, by the name of their marker
 DOC_TABLES: dict[str, Table] = {
     "shell": SHELL, "material": MATERIAL, "supports": SUPPORTS_TABLE, "mesh": MESH, "mesh.grading": GRADING,
     "loads": LOADS, "loads.point": POINT_LOAD, "loads.line": LINE_LOAD, "probes": PROBE, "solver": SOLVER,
-    "punch": PUNCH, "punch.zone": ZONE,
+    "punch": PUNCH, "punch.zone": ZONE, "units": UNITS,
     **{f"punch.{name}": Table(f"punch.{name}", shape.keys, shape.doc) for name, shape in SHAPES.items()},
 }
 
@@ -202,6 +210,7 @@ class Case:
     solver: SolverOptions = field(default_factory=SolverOptions)
     punches: tuple[PunchSpec, ...] = ()
     yield_stress: float | None = None  # [material] yield_stress: utilisation σ_v / yield_stress
+    units: str = "SI"  # [units] system: the labels of every output (units.SYSTEMS); numbers are never converted
     source: Path | None = None
     raw: dict[str, Any] = field(default_factory=dict)
 
@@ -354,6 +363,7 @@ def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
         solver=solver,
         punches=punches,
         yield_stress=None if material is None else material["yield_stress"],
+        units=UNITS.parse(data.get("units", {}))["system"],
         source=None if source is None else Path(source),
         raw=data,
     )
@@ -394,6 +404,32 @@ def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:
 
         data = apply_overrides(data, [parse_assignment(s) for s in sets])
     return case_from_dict(data, source=Path(path))
+
+
+#: the kind of quantity (units.py) of each schema unit
+_UNIT_KINDS = {"length": "length", "force": "force", "force/length": "force/length", "force/length²": "pressure",
+               "length/pressure": "length/pressure"}
+
+
+def key_kind(path: str) -> str | None:
+    """The kind of quantity (units.KINDS) of the case-file key ``path`` (e.g. ``punch.0.indentation`` → length),
+    or None for a dimensionless or unknown key; array indices are skipped, a punch's key may be its shape's."""
+    table: Table | None = CASE
+    key: Key | None = None
+    for part in (p for p in path.split(".") if not p.isdigit()):
+        if table is None:
+            return None
+        try:
+            key = table.key(part)
+        except KeyError:
+            shapes = [k for shape in SHAPES.values() for k in shape.keys if k.name == part] if table is PUNCH else []
+            if not shapes:
+                return None
+            key = shapes[0]
+        table = key.table
+    if key is None:
+        return None
+    return "angle" if key.angle else _UNIT_KINDS.get(key.unit)
 
 
 # -- docs/case-file.md: the key tables between the markers <!-- keys: NAME --> and <!-- /keys --> ---------------

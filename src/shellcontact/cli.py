@@ -140,26 +140,51 @@ def _check_profiles(args: argparse.Namespace, shell) -> None:
 
 
 def _print_summary(con: Console, s: dict) -> None:
-    con.print(f"dofs {s['dofs']}  elements {s['elements']}  energy {s['energy']:.6g}  max|w| {s['max_abs_w']:.6g}")
+    from .units import bracket, with_unit
+
+    system = s.get("unit_system", "SI")
+
+    def q(value: float, kind: str, spec: str = ".6g") -> str:  # a figure with the unit of the case's system
+        return with_unit(format(value, spec), kind, system)
+
+    con.print(f"dofs {s['dofs']}  elements {s['elements']}  energy {q(s['energy'], 'energy')}  "
+              f"max|w| {q(s['max_abs_w'], 'length')}")
     for p in s.get("probes", []):
-        con.print(f"probe x={p['x']:g} phi={p['phi']:g}: u={p['u']:.6g} v={p['v']:.6g} w={p['w']:.6g}")
+        con.print(f"probe x={q(p['x'], 'length', 'g')} phi={p['phi']:g} deg: "
+                  + "  ".join(f"{k}={q(p[k], 'length')}" for k in ("u", "v", "w")))
     contact = s.get("contact")
     if contact:
         for i, c in enumerate(contact if isinstance(contact, list) else [contact]):
             parts = [
-                f"{k} {c[k]:.6g}"
-                for k in ("force_magnitude", "total_normal_force", "area", "peak_pressure")
+                f"{name} {q(c[k], kind)}"
+                for k, name, kind in (("force_magnitude", "force", "force"),
+                                      ("total_normal_force", "total normal force", "force"),
+                                      ("peak_pressure", "peak pressure", "pressure"))
                 if isinstance(c.get(k), (int, float))
             ]
+            zone = c.get("zone")
+            if isinstance(zone, dict) and isinstance(zone.get("area"), (int, float)):
+                parts.append(f"zone area {q(zone['area'], 'area')}")
             con.print(f"punch {i}: " + "  ".join(parts))
+    st = s.get("stresses")
+    if st:
+        name, worst = max(st.items(), key=lambda kv: kv[1]["von_mises_max"])
+        util = f"  utilisation {worst['utilisation_max']:.3g}" if "utilisation_max" in worst else ""
+        con.print(f"max von Mises {q(worst['von_mises_max'], 'pressure')} ({name} surface, "
+                  f"x={q(worst['at']['x'], 'length', '.4g')} phi={worst['at']['phi']:.4g} deg){util}")
     eq = s.get("equilibrium")
     if eq:
         terms = "  ".join(f"{k} {_vec(eq[k]['force'])}" for k in ("applied", "contact", "reactions") if k in eq)
-        con.print(f"equilibrium (forces): {terms}  residual {_vec(eq['residual']['force'])} "
+        con.print(f"equilibrium, forces{bracket('force', system)}: {terms}  residual {_vec(eq['residual']['force'])} "
                   f"(relative {eq['relative_residual']:.1e})")
     kkt = s.get("kkt")
     if isinstance(kkt, dict) and kkt:
-        con.print("KKT residuals: " + "  ".join(f"{k} {v:.3e}" for k, v in kkt.items() if isinstance(v, float)))
+        con.print("KKT residuals: " + "  ".join(
+            f"{k} {q(v, _KKT_KINDS.get(k, 'strain'), '.3e')}" for k, v in kkt.items() if isinstance(v, float)))
+
+
+#: the kind of each unscaled KKT residual (solvers/kkt.py); the others are relative
+_KKT_KINDS = {"penetration": "length", "dual_feasibility": "force"}
 
 
 def _closing(n_warnings: int) -> str:

@@ -18,6 +18,7 @@ from .case import load_case
 from .files import atomic_write_text, write_json
 from .outputs import write_run_files
 from .transaction import replace_dir
+from .units import bracket, label
 
 CASE_FILE = "paper_panel.toml"
 #: the paper's three formulations, in its order (registered in solvers.methods)
@@ -50,25 +51,27 @@ def _row(method: str, result: Result, seconds: float) -> dict:
     }
 
 
+#: the comparison table: key, title, kind of quantity (its unit comes from the case's system), format
 COLUMNS = (
-    ("method", "method", "{}"),
-    ("force", "force [N]", "{:.6e}"),
-    ("contact_area", "area [m²]", "{:.4e}"),
-    ("active_vertices", "active", "{}"),
-    ("peak_pressure", "peak p [Pa]", "{:.4e}"),
-    ("max_deflection", "max|w| [m]", "{:.6e}"),
-    ("stationarity", "stationarity", "{:.1e}"),
-    ("penetration", "penetration", "{:.1e}"),
-    ("complementarity", "complement.", "{:.1e}"),
-    ("duality_gap", "duality gap", "{:.1e}"),
-    ("iterations", "iter", "{}"),
-    ("seconds", "time [s]", "{:.2f}"),
+    ("method", "method", None, "{}"),
+    ("force", "force", "force", "{:.6e}"),
+    ("contact_area", "area", "area", "{:.4e}"),
+    ("active_vertices", "active", None, "{}"),
+    ("peak_pressure", "peak p", "pressure", "{:.4e}"),
+    ("max_deflection", "max|w|", "length", "{:.6e}"),
+    ("stationarity", "stationarity", None, "{:.1e}"),
+    ("penetration", "penetration", "length", "{:.1e}"),
+    ("complementarity", "complement.", None, "{:.1e}"),
+    ("duality_gap", "duality gap", None, "{:.1e}"),
+    ("iterations", "iter", None, "{}"),
+    ("seconds", "time", "time", "{:.2f}"),
 )
 
 
-def format_table(rows: list[dict]) -> str:
-    cells = [[title for _, title, _ in COLUMNS]]
-    cells += [[fmt.format(r[key]) for key, _, fmt in COLUMNS] for r in rows]
+def format_table(rows: list[dict], system: str = "SI") -> str:
+    """The comparison as a Markdown table whose column titles carry the units of ``system``."""
+    cells = [[title + (bracket(kind, system) if kind else "") for _, title, kind, _ in COLUMNS]]
+    cells += [[fmt.format(r[key]) for key, _, _, fmt in COLUMNS] for r in rows]
     widths = [max(len(c[i]) for c in cells) for i in range(len(COLUMNS))]
     lines = ["| " + " | ".join(c[i].rjust(widths[i]) for i in range(len(widths))) + " |" for c in cells]
     lines.insert(1, "|" + "|".join("-" * (w + 2) for w in widths) + "|")
@@ -80,22 +83,24 @@ def run_demo(output_dir: str | Path = "demo-out", quiet: bool = False, *, overwr
     """Solve the paper's problem three ways, print the comparison, write the results (one transaction)."""
     out = Path(output_dir)
     with replace_dir(out, overwrite=overwrite, owned=DEMO_ENTRIES, wait=wait) as stage:
-        table, agreement, eps, warnings = _demo(stage, quiet)
+        table, agreement, eps, warnings, system = _demo(stage, quiet)
+    compliance = label("length/pressure", system)
     if not quiet:
         print("")
         print(table)
         print(f"\n||U_primal - U_dual||/||U|| = {agreement['primal_vs_dual']:.2e}; "
-              f"penalty (eps = {eps:.3g} m/Pa) differs by {agreement['primal_vs_penalty']:.2e}")
+              f"penalty (eps = {eps:.3g} {compliance}) differs by {agreement['primal_vs_penalty']:.2e}")
         print(f"wrote {out}/ (comparison.md, and per method: summary.json, fields.vtu, results.npz; "
               f"figures and report.html for active-set)"
               + (f"; {warnings} warning{'s' * (warnings != 1)} above" if warnings else ""))
     return 0
 
 
-def _demo(out: Path, quiet: bool) -> tuple[str, dict[str, float], float, int]:
+def _demo(out: Path, quiet: bool) -> tuple[str, dict[str, float], float, int, str]:
     say = (lambda *a: None) if quiet else print
     case = load_case(demo_case_path())
-    say(f"shellcontact demo: clamped panel (a = {case.shell.radius} m, t = {case.shell.thickness} m) "
+    length = label("length", case.units)
+    say(f"shellcontact demo: clamped panel (a = {case.shell.radius} {length}, t = {case.shell.thickness} {length}) "
         f"pressed by a spherical punch, case {demo_case_path().name}")
     rows, results, warnings = [], {}, 0
     for method in PAPER_METHODS:
@@ -108,7 +113,9 @@ def _demo(out: Path, quiet: bool) -> tuple[str, dict[str, float], float, int]:
         warnings += len(result.warnings())  # each already on stderr (analysis logs them as they arise)
     for method, result in results.items():
         (out / method).mkdir()
-        write_run_files(result, out / method, figures=(method == "active-set"), report=(method == "active-set"))
+        summary = {**result.summary(), "case_file": str(demo_case_path())}  # the reports name their case file
+        write_run_files(result, out / method, summary, figures=(method == "active-set"),
+                        report=(method == "active-set"))
     exact = results["active-set"].solution.U
     dual = results["dual"].solution.U
     pen = results["penalty"].solution.U
@@ -117,10 +124,10 @@ def _demo(out: Path, quiet: bool) -> tuple[str, dict[str, float], float, int]:
         "primal_vs_dual": float(((exact - dual) @ (exact - dual)) ** 0.5 / norm),
         "primal_vs_penalty": float(((exact - pen) @ (exact - pen)) ** 0.5 / norm),
     }
-    table = format_table(rows)
+    table = format_table(rows, case.units)
     write_json(out / "comparison.json", {"case": str(demo_case_path().name), "rows": rows, "agreement": agreement})
     atomic_write_text(out / "comparison.md", table + "\n\n"
                       + f"||U_primal - U_dual||/||U|| = {agreement['primal_vs_dual']:.2e}, "
                       + f"||U_primal - U_penalty||/||U|| = {agreement['primal_vs_penalty']:.2e} "
-                      + f"(penalty eps = {rows[0]['penalty']:.3g} m/Pa)\n")
-    return table, agreement, rows[0]["penalty"], warnings
+                      + f"(penalty eps = {rows[0]['penalty']:.3g} {label('length/pressure', case.units)})\n")
+    return table, agreement, rows[0]["penalty"], warnings, case.units

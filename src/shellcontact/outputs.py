@@ -16,6 +16,7 @@ from typing import Any
 from .fields import vertex_fields
 from .files import atomic_write_bytes, write_json
 from .report import write_report
+from .units import summary_units
 from .writers import write_npz, write_vtu
 
 #: files a run directory may contain; ``--force`` replaces exactly these (other files are kept)
@@ -24,7 +25,9 @@ RUN_FILES = (
     "fields.vtu",
     "results.npz",
     "deflection.png",
+    "von_mises.png",
     "deformed.png",
+    "sections.png",
     "pressure.png",
     "pressure_profiles.png",
     "report.html",
@@ -91,6 +94,7 @@ def write_run_files(
     timings = summary.setdefault("timings", {})
     timings["output"] = timings.get("output", 0.0) + time.perf_counter() - t0
     timings["total"] = timings.get("total", 0.0) + timings["output"]
+    summary["units"] = summary_units(summary, result.case.units)  # now with the new timings
     write_json(directory / "summary.json", summary)
     written["summary.json"] = directory / "summary.json"
     if report:

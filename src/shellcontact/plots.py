@@ -16,10 +16,12 @@ from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 from matplotlib.tri import Triangulation
 
-from .fields import contact_vertex_fields
+from .fields import contact_vertex_fields, vertex_fields
 from .files import atomic_write_bytes
+from .units import bracket, with_unit
 
 DPI = 110
 
@@ -76,32 +78,119 @@ def _fmt(v: float) -> str:
     return f"{v:.4g}"
 
 
+def _levels(values: np.ndarray, lo: float | None = None) -> np.ndarray | int:
+    """21 colour bands from the smallest (or ``lo``) to the largest value exactly, so that the 3D views can use the
+    same scale (one colour scale per quantity across the figures of a run)."""
+    lo = float(np.min(values)) if lo is None else lo
+    hi = float(np.max(values))
+    return np.linspace(lo, hi, 22) if hi > lo else 1
+
+
+def _unit(result, kind: str) -> str:
+    """`` [unit]`` of a kind of quantity in the case's ``[units] system`` (units.py), for axis and colour-bar labels."""
+    return bracket(kind, getattr(result.case, "units", "SI"))
+
+
+def _q(result, value: float, kind: str) -> str:
+    """A number (4 significant digits) with its unit, for titles."""
+    return with_unit(_fmt(value), kind, getattr(result.case, "units", "SI"))
+
+
+def _map_axes(ax, result) -> None:
+    """Axis labels with units and few enough ticks that their labels never overlap."""
+    ax.set_xlabel(f"x{_unit(result, 'length')}")
+    ax.set_ylabel("φ [deg]")
+    ax.xaxis.set_major_locator(MaxNLocator(6))
+    lo, hi = ax.get_ylim()
+    ax.yaxis.set_major_locator(_degree_locator(abs(hi - lo)))
+
+
+def _degree_locator(span: float, most: int = 8):
+    """Ticks on an angle axis at a round number of degrees (…, 5, 10, 15, 30, 45, 90, …), at most ``most`` intervals."""
+    from matplotlib.ticker import MultipleLocator
+
+    steps = [m * 10.0 ** e for e in range(-3, 3) for m in (1, 2, 5)] + [15.0, 30.0, 45.0, 90.0]
+    return MultipleLocator(min((d for d in sorted(steps) if span / d <= most and d not in (20.0, 50.0)),
+                               default=90.0))
+
+
+def _contact_outline(ax, result, fields: dict[str, np.ndarray] | None = None) -> bool:
+    """The boundary of the contact region (the active constraint vertices) on a map over (x, φ°)."""
+    status = (fields if fields is not None and "contact_status" in fields else contact_vertex_fields(result)).get(
+        "contact_status")
+    if status is None or not np.any(status == 1) or not np.any(status != 1):
+        return False
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    tri = Triangulation(x, np.degrees(s / sol.shell.radius), sol.space.mesh.t.T)
+    ax.tricontour(tri, (np.asarray(status) == 1).astype(float), levels=[0.5], colors="c", linewidths=1.5)
+    ax.plot([], [], "c-", label="contact boundary")
+    return True
+
+
 # -- run figures -----------------------------------------------------------------------------------------
 def plot_deflection(result, path: str | Path | None = None) -> Figure:
-    """Map of the deflection w (outward positive) over (x, φ°)."""
+    """Map of the deflection w (outward positive) over (x, φ°), with the probes and the contact boundary."""
     tri, w = evaluation_grid(result, "w")
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
-    levels = 21 if np.ptp(w) > 0 else 1
+    levels = _levels(w)
     cs = ax.tricontourf(tri, w, levels=levels, cmap="viridis")
-    fig.colorbar(cs, ax=ax, label="w (outward positive)")
+    fig.colorbar(cs, ax=ax, label=f"w, outward positive{_unit(result, 'length')}", ticks=MaxNLocator(8))
     _probes(ax, result)
+    if _contact_outline(ax, result) or getattr(result.case, "probes", None):
+        ax.legend(loc="upper right", fontsize=8)
     i = int(np.argmax(np.abs(w)))
-    ax.set_title(f"deflection w: max |w| = {_fmt(abs(w[i]))} at x = {_fmt(tri.x[i])}, φ = {_fmt(tri.y[i])}°")
-    ax.set_xlabel("x")
-    ax.set_ylabel("φ (degrees)")
+    ax.set_title(f"deflection w: max |w| = {_q(result, abs(w[i]), 'length')} at x = {_q(result, tri.x[i], 'length')}, "
+                 f"φ = {_fmt(tri.y[i])}°", fontsize=10)
+    _map_axes(ax, result)
     return _finish(fig, path)
 
 
-def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, label: str, fig: Figure) -> None:
+def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.ndarray] | None = None) -> Figure:
+    """Map of the von Mises stress on the worse surface (the one with the largest value) over (x, φ°), its
+    maximum marked, the contact boundary and, with ``[material] yield_stress``, the yield contour."""
+    fields = vertex_fields(result) if fields is None else fields
+    surface = max(("bottom", "middle", "top"), key=lambda k: float(np.max(fields[f"von_mises_{k}"])))
+    vm = np.asarray(fields[f"von_mises_{surface}"], float)
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    phi = np.degrees(s / sol.shell.radius)
+    tri = Triangulation(x, phi, sol.space.mesh.t.T)
+    fig = Figure(figsize=(6.4, 4.6))
+    ax = fig.add_subplot()
+    cs = ax.tricontourf(tri, vm, levels=_levels(vm), cmap="plasma")
+    fig.colorbar(cs, ax=ax, label=f"von Mises stress, {surface} surface{_unit(result, 'pressure')}",
+                 ticks=MaxNLocator(8))
+    i = int(np.argmax(vm))
+    ax.plot(x[i], phi[i], "wx", ms=9, mew=2, label="maximum")
+    fy = getattr(result.case, "yield_stress", None)
+    if fy is not None and vm.min() < fy < vm.max():
+        ax.tricontour(tri, vm, levels=[fy], colors="w", linestyles="--", linewidths=1.2)
+        ax.plot([], [], "w--", label="yield stress")
+    _contact_outline(ax, result, fields)
+    legend = ax.legend(loc="upper right", fontsize=8, facecolor="0.5", framealpha=0.6)
+    for text in legend.get_texts():
+        text.set_color("w")
+    util = f", utilisation {_fmt(vm[i] / fy)}" if fy else ""
+    ax.set_title(f"von Mises stress ({surface} surface): max {_q(result, vm[i], 'pressure')}{util}\n"
+                 f"at x = {_q(result, x[i], 'length')}, φ = {_fmt(phi[i])}°", fontsize=10)
+    _map_axes(ax, result)
+    return _finish(fig, path)
+
+
+def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, label: str, fig: Figure,
+             length: str = "", limits: tuple[float, float] | None = None, blank_zero: bool = False) -> None:
     from matplotlib import cm, colors
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     face = values[t].mean(axis=1)
-    lo, hi = float(np.min(face)), float(np.max(face))
+    lo, hi = (float(np.min(face)), float(np.max(face))) if limits is None else limits
     norm = colors.Normalize(lo, hi if hi > lo else lo + 1.0)
     mapper = cm.ScalarMappable(norm=norm, cmap=cmap)
     rgba = mapper.to_rgba(face)
+    if blank_zero:  # off contact: light grey, so that the shell stays visible around the coloured patch
+        rgba[face <= 0.0] = (0.85, 0.85, 0.85, 1.0)
     poly = Poly3DCollection(pts[t], facecolors=rgba, edgecolors=rgba, linewidths=0.3)  # edges hide seams
     ax.add_collection3d(poly)
     lo3, hi3 = pts.min(axis=0), pts.max(axis=0)
@@ -110,14 +199,14 @@ def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, 
     for k, setter in enumerate((ax.set_xlim, ax.set_ylim, ax.set_zlim)):
         setter(ctr[k] - 0.5 * span[k], ctr[k] + 0.5 * span[k])
     ax.set_box_aspect(tuple(span / span.max()))
-    from matplotlib.ticker import MaxNLocator
-
     for axis, k in ((ax.xaxis, 0), (ax.yaxis, 1), (ax.zaxis, 2)):
-        axis.set_major_locator(MaxNLocator(max(2, int(6 * span[k] / span.max()))))
-    ax.set_xlabel("X")
-    ax.set_ylabel("Y")
-    ax.set_zlabel("Z")
-    fig.colorbar(mapper, ax=ax, shrink=0.6, pad=0.12, label=label)
+        axis.set_major_locator(MaxNLocator(max(2, int(4 * span[k] / span.max()))))
+    ax.set_xlabel(f"X{length}")
+    ax.set_ylabel(f"Y{length}")
+    ax.set_zlabel(f"Z{length}")
+    ax.tick_params(labelsize=8)
+    ax.zaxis.labelpad = 8
+    fig.colorbar(mapper, ax=ax, shrink=0.6, pad=0.22, label=label)  # clear of the Z label
 
 
 def _refined(result, max_points: int):
@@ -143,14 +232,16 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
     pts = (sh.point(x, phi) + scale * sol.displacement(x, phi)).T
     t = r.t.T
     w = sol.evaluate(x, phi, ("w",))["w"]
-    panels = [("w", w, "viridis")]
+    _, w_map = evaluation_grid(result, "w")  # the colour scale of deflection.png: one scale per quantity
+    panels = [("w", w, "viridis", f"w{_unit(result, 'length')}", (float(w_map.min()), float(w_map.max())))]
     pressure = contact_vertex_fields(result).get("contact_pressure")
     if pressure is not None:
         from matplotlib.tri import LinearTriInterpolator
 
         mx, ms = sol.space.mesh.p
         interp = LinearTriInterpolator(Triangulation(mx, ms, sol.space.mesh.t.T), np.asarray(pressure, float))
-        panels.append(("contact pressure", np.ma.filled(interp(x, s), 0.0), "inferno"))
+        panels.append(("contact pressure", np.ma.filled(interp(x, s), 0.0), "inferno",
+                       f"contact pressure{_unit(result, 'pressure')}", (0.0, float(np.max(pressure)))))
     n = 60
     lines = [
         (np.full(n, sh.x_min), np.linspace(sh.alpha, sh.beta, n)),
@@ -159,13 +250,54 @@ def plot_deformed(result, path: str | Path | None = None, scale: float | None = 
         (np.linspace(sh.x_min, sh.x_max, n), np.full(n, sh.beta)),
     ]
     fig = Figure(figsize=(6.0 * len(panels), 5.2))
-    for k, (label, vals, cmap) in enumerate(panels):
+    for k, (label, vals, cmap, bar, limits) in enumerate(panels):
         ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
-        _surface(ax, pts, t, np.asarray(vals, float), cmap, label, fig)
+        _surface(ax, pts, t, np.asarray(vals, float), cmap, bar, fig, _unit(result, "length"), limits,
+                 blank_zero=label == "contact pressure")
         for lx, lp in lines:  # the undeformed boundary, for reference
             ax.plot(*sh.point(lx, lp), color="0.4", lw=0.8, ls="--")
         ax.view_init(elev=25, azim=-60)
         ax.set_title(f"deformed shell coloured by {label}\ndisplacements × {scale:g}")
+    return _finish(fig, path)
+
+
+def plot_sections(result, path: str | Path | None = None, scale: float | None = None) -> Figure:
+    """Two sections through the point of largest |w| (under the punch, with contact): the ring at that x,
+    undeformed and deformed (displacements × ``scale``, default ``exaggeration(result)``: the ovalisation),
+    and w along the generator at that φ (true size)."""
+    sol = result.solution
+    sh = sol.shell
+    scale = exaggeration(result) if scale is None else float(scale)
+    tri, w = evaluation_grid(result, "w")
+    i = int(np.argmax(np.abs(w)))
+    x0, phi0 = float(tri.x[i]), math.radians(float(tri.y[i]))
+    L = _unit(result, "length")
+    fig = Figure(figsize=(11.0, 4.6), layout="constrained")
+    ring, gen = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+    phi = np.linspace(sh.alpha, sh.beta, 361)
+    xs = np.full(phi.size, x0)
+    ref = sh.point(xs, phi)
+    cur = ref + scale * sol.displacement(xs, phi)
+    ring.plot(ref[1], ref[2], color="0.5", ls="--", lw=1.0, label="undeformed")
+    ring.plot(cur[1], cur[2], color="C0", lw=1.8, label=f"deformed, displacements × {scale:g}")
+    ring.plot(*cur[1:, np.argmin(np.abs(phi - phi0))], "k+", ms=10, mew=1.5, label=f"φ = {_fmt(math.degrees(phi0))}°")
+    ring.set_aspect("equal", adjustable="datalim")
+    ring.set_xlabel(f"y{L}")
+    ring.set_ylabel(f"z{L}")
+    ring.set_title(f"ring section at x = {_q(result, x0, 'length')}", fontsize=10)
+    ring.legend(loc="best", fontsize=8)
+    ring.grid(True, alpha=0.3)
+    x = np.linspace(sh.x_min, sh.x_max, 401)
+    wx = sol.evaluate(x, np.full(x.size, phi0), ("w",))["w"]
+    gen.plot(x, wx, color="C0", lw=1.8)
+    gen.axhline(0.0, color="0.5", lw=0.8, ls="--")
+    gen.set_xlabel(f"x{L}")
+    gen.set_ylabel(f"w, outward positive{L}")
+    gen.set_title(f"w along the generator φ = {_fmt(math.degrees(phi0))}° (true size)", fontsize=10)
+    gen.xaxis.set_major_locator(MaxNLocator(6))
+    gen.grid(True, alpha=0.3)
+    for ax in (ring, gen):
+        ax.xaxis.set_major_locator(MaxNLocator(6))
     return _finish(fig, path)
 
 
@@ -198,13 +330,11 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     fig = Figure(figsize=(6.4, 4.8))
     ax = fig.add_subplot()
     p = np.asarray(p, float)
-    levels = 21 if np.ptp(p) > 0 else 1
+    levels = _levels(p, 0.0)
     cs = ax.tricontourf(tri, p, levels=levels, cmap="inferno")
-    fig.colorbar(cs, ax=ax, label="contact pressure Λ/ω")
+    fig.colorbar(cs, ax=ax, label=f"contact pressure Λ/ω{_unit(result, 'pressure')}", ticks=MaxNLocator(8))
     status = fields.get("contact_status")
-    if status is not None and np.any(status == 1) and np.any(status != 1):
-        ax.tricontour(tri, (np.asarray(status) == 1).astype(float), levels=[0.5], colors="c", linewidths=1.5)
-        ax.plot([], [], "c-", label="contact boundary")
+    if _contact_outline(ax, result, fields):
         act = np.asarray(status) == 1
         ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
         ax.legend(loc="upper right", fontsize=8)
@@ -212,9 +342,8 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     xr, pr = _contact_box(fields, x, phi, h, math.degrees(h / sol.shell.radius))
     ax.set_xlim(*xr)
     ax.set_ylim(*pr)
-    ax.set_title(f"contact pressure: peak {_fmt(float(np.max(p)))}")
-    ax.set_xlabel("x")
-    ax.set_ylabel("φ (degrees)")
+    ax.set_title(f"contact pressure: peak {_q(result, float(np.max(p)), 'pressure')}")
+    _map_axes(ax, result)
     return _finish(fig, path)
 
 
@@ -260,9 +389,10 @@ def plot_pressure_profiles(
     for k, (label, (c, p)) in enumerate(lines.items()):
         ax = fig.add_subplot(1, 2, k + 1)
         ax.plot(c, p, "o-", ms=3)
-        ax.set_xlabel("φ (degrees)" if label.startswith("x") else "x")
-        ax.set_ylabel("nodal pressure Λ/ω")
-        ax.set_title(f"along {label}")
+        ax.set_xlabel("φ [deg]" if label.startswith("x") else f"x{_unit(result, 'length')}")
+        ax.set_ylabel(f"nodal pressure Λ/ω{_unit(result, 'pressure')}")
+        ax.xaxis.set_major_locator(MaxNLocator(6))
+        ax.set_title(f"along {with_unit(label, 'length', result.case.units) if label.startswith('x') else label}")
         ax.grid(True, alpha=0.3)
     return _finish(fig, path)
 
@@ -275,7 +405,8 @@ def run_figures(
 ) -> dict[str, bytes]:
     """All figures of one run as PNG bytes, by file name (contact figures only with contact);
     ``profile_x``/``profile_phi`` (degrees) choose the pressure-profile lines (default: through the peak)."""
-    out = {"deflection.png": plot_deflection(result), "deformed.png": plot_deformed(result)}
+    out = {"deflection.png": plot_deflection(result), "von_mises.png": plot_von_mises(result, fields=fields),
+           "deformed.png": plot_deformed(result), "sections.png": plot_sections(result)}
     for name, fig in (
         ("pressure.png", plot_pressure(result)),
         ("pressure_profiles.png", plot_pressure_profiles(result, x=profile_x, phi=profile_phi)),
@@ -287,24 +418,31 @@ def run_figures(
 
 # -- study figures -------------------------------------------------------------------------------------
 SWEEP_PANELS = (
-    ("force", "contact force |F|"),
-    ("area", "contact area"),
-    ("peak_pressure", "peak pressure"),
-    ("energy", "strain energy"),
-    ("max_abs_w", "max |w|"),
+    ("force", "contact force |F|", "force"),
+    ("area", "contact area", "area"),
+    ("peak_pressure", "peak pressure", "pressure"),
+    ("energy", "strain energy", "energy"),
+    ("max_abs_w", "max |w|", "length"),
 )
 
 
-def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None) -> Figure:
-    """Each result column (force, area, peak pressure, energy, max|w|; per punch) against the parameter."""
+def _param_label(param: str, system: str, kind: str | None) -> str:
+    """The swept key with its unit (``kind``: its kind of quantity, ``case.key_kind``)."""
+    return param + (bracket(kind, system) if kind else "")
+
+
+def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None,
+               system: str = "SI", param_kind: str | None = None) -> Figure:
+    """Each result column (force, area, peak pressure, energy, max|w|; per punch) against the parameter;
+    ``system``: the case's ``[units] system``, ``param_kind``: the swept key's kind of quantity (axis labels)."""
     xs = np.array([r[param] for r in rows], float)
     panels = []
-    for key, label in SWEEP_PANELS:
+    for key, label, kind in SWEEP_PANELS:
         cols = [c for c in rows[0] if c == key or c.startswith(key + "_")] if rows else []
         cols = [c for c in cols if not (key == "force" and c.startswith("force_"))] or cols
         cols = [c for c in cols if all(isinstance(r.get(c), (int, float)) for r in rows)]
         if cols:
-            panels.append((label, cols))
+            panels.append((label + bracket(kind, system), cols))
     n = len(panels)
     ncol = min(n, 3)
     nrow = math.ceil(n / ncol)
@@ -315,14 +453,16 @@ def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | No
             ax.plot(xs, [r[c] for r in rows], "o-", ms=4, label=c)
         if len(cols) > 1:
             ax.legend(fontsize=8)
-        ax.set_xlabel(param)
+        ax.set_xlabel(_param_label(param, system, param_kind))
         ax.set_ylabel(label)
+        ax.xaxis.set_major_locator(MaxNLocator(5))
         ax.grid(True, alpha=0.3)
     fig.suptitle(f"sweep over {param}")
     return _finish(fig, path)
 
 
-def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None) -> Figure | None:
+def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None,
+                           system: str = "SI", param_kind: str | None = None) -> Figure | None:
     """Contact force against the swept parameter (None when the rows have no force column)."""
     cols = [c for c in (rows[0] if rows else {}) if c == "force" or (c.startswith("force_") and c[6:].isdigit())]
     if not cols:
@@ -332,8 +472,9 @@ def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str
     xs = np.array([r[param] for r in rows], float)
     for c in cols:
         ax.plot(xs, [r[c] for r in rows], "o-", label=c)
-    ax.set_xlabel(param)
-    ax.set_ylabel("contact force |F| on the shell")
+    ax.set_xlabel(_param_label(param, system, param_kind))
+    ax.set_ylabel(f"contact force |F| on the shell{bracket('force', system)}")
+    ax.xaxis.set_major_locator(MaxNLocator(6))
     ax.set_title("force–indentation" if "indentation" in param else f"force against {param}")
     ax.grid(True, alpha=0.3)
     if len(cols) > 1:
@@ -341,7 +482,7 @@ def plot_force_indentation(rows: Sequence[dict[str, Any]], param: str, path: str
     return _finish(fig, path)
 
 
-def plot_convergence(rows: Sequence[dict[str, Any]], path: str | Path | None = None) -> Figure:
+def plot_convergence(rows: Sequence[dict[str, Any]], path: str | Path | None = None, system: str = "SI") -> Figure:
     """Log–log errors against the finest level versus h (levels except the finest)."""
     fig = Figure(figsize=(6, 4.5))
     ax = fig.add_subplot()
@@ -357,7 +498,7 @@ def plot_convergence(rows: Sequence[dict[str, Any]], path: str | Path | None = N
         h = np.array([r["h"] for r in ref])
         for order, style in ((2, ":"), (4, "--")):
             ax.loglog(h, ref[0][cols[0]] * (h / h[0]) ** order, "k" + style, lw=0.8, label=f"O(h{'²⁴'[order // 4]})")
-    ax.set_xlabel("h (largest edge in (x, s))")
+    ax.set_xlabel(f"h, the largest edge in (x, s){bracket('length', system)}")
     ax.set_ylabel("relative error against the finest level")
     ax.set_title("convergence under nested refinement")
     ax.grid(True, which="both", alpha=0.3)

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from .arguments import expect_callable, expect_case, expect_integer, expect_numbers, expect_path
-from .case import Case, case_from_dict
+from .case import Case, case_from_dict, key_kind
 from .errors import InputError
 from .files import atomic_write_bytes, atomic_write_text, check_output_dir, write_json
 from .overrides import apply_overrides, split_path
@@ -410,8 +410,10 @@ def _write_sweep_files(res: SweepResult, out: Path, param: str, figures: bool, s
     if figures:
         from . import plots
 
-        pngs["sweep.png"] = plots.png_bytes(plots.plot_sweep(res.rows, param))
-        fi = plots.plot_force_indentation(res.rows, param)
+        system = res.summaries[0].get("unit_system", "SI") if res.summaries else "SI"
+        kind = key_kind(param)
+        pngs["sweep.png"] = plots.png_bytes(plots.plot_sweep(res.rows, param, system=system, param_kind=kind))
+        fi = plots.plot_force_indentation(res.rows, param, system=system, param_kind=kind)
         if fi is not None:
             pngs["force_indentation.png"] = plots.png_bytes(fi)
         for name, data in pngs.items():
@@ -553,7 +555,7 @@ def _convergence(case: Case, levels: int, out: Path | None, progress: Progress |
         if figures:
             from . import plots
 
-            png = plots.png_bytes(plots.plot_convergence(rows))
+            png = plots.png_bytes(plots.plot_convergence(rows, system=case.units))
             atomic_write_bytes(out / "convergence.png", png)
             res.files["convergence.png"] = out / "convergence.png"
         from .report import write_study_report

@@ -1,0 +1,111 @@
+"""The run figures: units on every axis and colour bar, tick labels that never overlap, the contact boundary
+on the maps, and a von Mises map of the worse surface whose maximum is the summary's."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+from shellcontact import plots
+from shellcontact.analysis import solve
+from shellcontact.case import key_kind, load_case
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def panel():
+    """The paper's panel, coarse, written in N, mm, MPa (yield stress inside the stress range)."""
+    case = load_case(ROOT / "examples" / "paper_panel.toml", [
+        "mesh.nx=6", "mesh.nphi=6", 'units.system="mm"', "material.yield_stress=5e8"])
+    return solve(case)
+
+
+def _figures(result) -> dict:
+    return {"deflection": plots.plot_deflection(result), "von_mises": plots.plot_von_mises(result),
+            "deformed": plots.plot_deformed(result), "sections": plots.plot_sections(result),
+            "pressure": plots.plot_pressure(result),
+            "profiles": plots.plot_pressure_profiles(result)}
+
+
+def _overlaps(boxes) -> list:
+    return [(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:] if a.overlaps(b)]
+
+
+def test_units_on_every_axis_and_colour_bar(panel) -> None:
+    for name, fig in _figures(panel).items():
+        for ax in fig.axes:
+            labels = [ax.get_xlabel(), ax.get_ylabel()] + ([ax.get_zlabel()] if hasattr(ax, "get_zlabel") else [])
+            for text in filter(None, labels):
+                assert "[" in text and text.endswith("]"), (name, text)
+                assert text.endswith(("[mm]", "[MPa]", "[deg]")), (name, text)
+    # the system's labels, not SI ones, and the titles' figures too
+    fig = plots.plot_von_mises(panel)
+    assert "MPa" in fig.axes[0].get_title() and "mm" in fig.axes[0].get_title()
+
+
+def test_tick_labels_never_overlap(panel) -> None:
+    for name, fig in _figures(panel).items():
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()
+        renderer = canvas.get_renderer()
+        for ax in fig.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                boxes = [t.get_window_extent(renderer) for t in axis.get_ticklabels()
+                         if t.get_visible() and t.get_text()]
+                assert not _overlaps(boxes), (name, [t.get_text() for t in axis.get_ticklabels()])
+
+
+def test_maps_show_the_contact_boundary_and_von_mises_of_the_worse_surface(panel) -> None:
+    s = panel.summary()
+    for fig in (plots.plot_deflection(panel), plots.plot_von_mises(panel), plots.plot_pressure(panel)):
+        legend = fig.axes[0].get_legend()
+        assert legend is not None and "contact boundary" in [t.get_text() for t in legend.get_texts()]
+    worst = max(s["stresses"], key=lambda k: s["stresses"][k]["von_mises_max"])
+    ax = plots.plot_von_mises(panel).axes[0]
+    assert f"({worst} surface)" in ax.get_title()
+    assert f"{s['stresses'][worst]['von_mises_max']:.4g}" in ax.get_title()
+    assert f"utilisation {s['stresses'][worst]['utilisation_max']:.4g}" in ax.get_title()
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "yield stress" in labels and "maximum" in labels
+    assert np.isfinite(s["stresses"][worst]["von_mises_max"])
+
+
+def test_sections_pass_through_the_largest_deflection(panel) -> None:
+    """The generator through the point of largest |w| reaches the summary's max |w| (vertex values), and the
+    ring section states its magnification."""
+    fig = plots.plot_sections(panel)
+    ring, gen = fig.axes[:2]
+    w = gen.get_lines()[0].get_ydata()
+    assert float(np.max(np.abs(w))) == pytest.approx(panel.summary()["max_abs_w"], rel=1e-3)
+    assert f"× {plots.exaggeration(panel):g}" in " ".join(t.get_text() for t in ring.get_legend().get_texts())
+
+
+def test_one_colour_scale_per_quantity(panel) -> None:
+    """w and the contact pressure have the same colour range on the maps and on the 3D views."""
+    deformed = plots.plot_deformed(panel)
+    bars = [ax for ax in deformed.axes if ax.name != "3d"]
+    assert len(bars) == 2
+    for fig, bar in ((plots.plot_deflection(panel), bars[0]), (plots.plot_pressure(panel), bars[1])):
+        assert fig.axes[1].get_ylim() == pytest.approx(bar.get_ylim(), rel=1e-12, abs=0.0), fig.axes[0].get_title()
+
+
+def test_study_figures_carry_units() -> None:
+    """The swept key's unit comes from the case-file schema, the results' from the case's system."""
+    rows = [{"punch.0.indentation": d, "force": 1e3 * d, "area": d, "energy": d, "max_abs_w": d} for d in (1.0, 2.0)]
+    kind = key_kind("punch.0.indentation")
+    fig = plots.plot_sweep(rows, "punch.0.indentation", system="mm", param_kind=kind)
+    labels = {ax.get_ylabel(): ax.get_xlabel() for ax in fig.axes}
+    assert set(labels.values()) == {"punch.0.indentation [mm]"}
+    assert set(labels) == {"contact force |F| [N]", "contact area [mm²]", "strain energy [N·mm]", "max |w| [mm]"}
+    ax = plots.plot_force_indentation(rows, "punch.0.indentation", system="SI", param_kind=kind).axes[0]
+    assert ax.get_xlabel() == "punch.0.indentation [m]" and ax.get_ylabel().endswith("[N]")
+    counts = [{"mesh.nx": n, "energy": 1.0 / n} for n in (4, 8)]
+    assert key_kind("mesh.nx") is None and key_kind("loads.normal") == "pressure"
+    assert key_kind("probes.0.phi") == "angle"
+    assert plots.plot_sweep(counts, "mesh.nx").axes[0].get_xlabel() == "mesh.nx"  # a count has no unit
+    conv = [{"h": h, "error_force": h**2} for h in (0.1, 0.05, 0.025)]
+    assert plots.plot_convergence(conv, system="mm").axes[0].get_xlabel().endswith("[mm]")
