@@ -38,7 +38,7 @@ td, th { border: 1px solid #ccc; padding: 0.2em 0.6em; text-align: left; vertica
 td.num { text-align: right; font-family: ui-monospace, monospace; white-space: nowrap; }
 td.unit { color: #555; white-space: nowrap; }
 table.headline td:first-child { font-weight: 600; }
-th { background: #f3f3f3; } .set { color: #a40; font-weight: bold; }
+th { background: #f3f3f3; overflow-wrap: break-word; } .set { color: #a40; font-weight: bold; }
 figure { display: inline-block; margin: 0.5em 0; max-width: 100%; vertical-align: top; }
 figure.half { max-width: calc(50% - 0.5em); }
 img { max-width: 100%; height: auto; border: 1px solid #ddd; }
