@@ -254,7 +254,8 @@ def test_sweep_prints_a_table_and_progress_lines_without_float_noise(tmp_path: P
     assert [ln for ln in r.stderr.splitlines() if ln.startswith("[")] == [
         f"[{i}/6] shell.thickness = {v:g}" for i, v in enumerate((0.2, 0.22, 0.24, 0.26, 0.28, 0.3), 1)]
     table = [ln for ln in r.stdout.splitlines() if ln.strip() and not ln.startswith("wrote")]
-    assert table[0].split()[:2] == ["shell.thickness", "dofs"] and len(table) == 7
+    assert table[0].split()[:4] == ["shell.thickness", "[m]", "dofs", "energy"] and len(table) == 7
+    assert "energy [J]" in table[0] and "max_abs_w [m]" in table[0]  # units of the case's system (SI)
     assert len({len(ln) for ln in table}) == 1  # aligned columns
     csv = (tmp_path / "sw" / "sweep.csv").read_text().splitlines()
     assert [ln.split(",")[0] for ln in csv[1:]] == ["0.2", "0.22", "0.24", "0.26", "0.28", "0.3"]

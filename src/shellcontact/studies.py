@@ -22,6 +22,7 @@ import shutil
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
+from fnmatch import fnmatchcase
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
@@ -91,6 +92,17 @@ def _value(v: float) -> int | float:
 
 
 # -- rows -----------------------------------------------------------------------------------------------
+#: the kind of quantity (units.KINDS) of each CSV column, by name pattern (None: a count or dimensionless)
+COLUMN_KINDS = (("dofs", None), ("energy", "energy"), ("max_abs_w", "length"), ("probe*_w", "length"),
+                ("normal_force*", "force"), ("force*", "force"), ("zone_area*", "area"), ("area*", "area"),
+                ("peak_pressure*", "pressure"), ("active_vertices*", None), ("punch_travel*", "length"),
+                ("iterations", None))
+
+
+def column_kind(column: str) -> str | None:
+    return next((kind for pattern, kind in COLUMN_KINDS if fnmatchcase(column, pattern)), None)
+
+
 def summary_row(summary: dict[str, Any]) -> dict[str, Any]:
     """The CSV columns of one solve: dofs, energy, max|w|, probe w, and contact columns when present."""
     row: dict[str, Any] = {
@@ -108,6 +120,8 @@ def summary_row(summary: dict[str, Any]) -> dict[str, Any]:
             for col, key in CONTACT_COLUMNS:
                 if e.get(key) is not None:
                     row[col + suffix] = e[key]
+            if isinstance(e.get("zone"), dict) and e["zone"].get("area") is not None:
+                row["zone_area" + suffix] = e["zone"]["area"]  # the area that converges (contact.contact_zone)
     it = summary.get("iterations")
     if isinstance(it, int):
         row["iterations"] = it
@@ -609,8 +623,13 @@ def convergence_table(res: ConvergenceResult) -> str:
 
 
 def sweep_table(res: SweepResult) -> str:
-    """A fixed-width text table of a sweep (every column of its CSV; the CSV keeps full precision)."""
+    """A fixed-width text table of a sweep (every column of its CSV, with units; the CSV keeps full precision)."""
+    from .units import bracket
+
+    system = res.summaries[0].get("unit_system", "SI") if res.summaries else "SI"
     cols: list[str] = []
     for r in res.rows:
         cols += [c for c in r if c not in cols]
-    return text_table(cols, [[r.get(c) for c in cols] for r in res.rows])
+    kinds = [key_kind(c) if c == res.param else column_kind(c) for c in cols]
+    head = [c + (bracket(k, system) if k else "") for c, k in zip(cols, kinds)]
+    return text_table(head, [[r.get(c) for c in cols] for r in res.rows])
