@@ -27,8 +27,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import model
-from .arguments import expect_callable, expect_case, expect_choice
-from .case import Case
+from .arguments import expect_callable, expect_choice
+from .case import Case, expect_case
 from .contact import ContactOperator, contact_operator, contact_zone, penetration_outside
 from .errors import InputError, SolverError
 from .linalg import BACKENDS, factorize

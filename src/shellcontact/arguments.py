@@ -17,23 +17,10 @@ from typing import Any
 from .errors import InputError
 
 
-def _got(value: Any) -> str:
+def described(value: Any) -> str:
+    """A value as error messages show it: its type and its repr, shortened."""
     text = repr(value)
     return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
-
-
-def expect_case(value: Any, function: str) -> None:
-    """``value`` must be a ``Case`` (a file name or a dictionary is read first)."""
-    from .case import Case
-
-    if isinstance(value, Case):
-        return
-    hint = ""
-    if isinstance(value, (str, os.PathLike)):
-        hint = f"; read the file first: {function}(shellcontact.load_case({str(value)!r}))"
-    elif isinstance(value, dict):
-        hint = f"; validate the dictionary first: {function}(shellcontact.case_from_dict(data))"
-    raise TypeError(f"{function}(): case must be a shellcontact.Case, got {_got(value)}{hint}")
 
 
 def expect_path(value: Any, function: str, name: str, optional: bool = False) -> None:
@@ -42,7 +29,7 @@ def expect_path(value: Any, function: str, name: str, optional: bool = False) ->
         return
     if not isinstance(value, (str, os.PathLike)):
         what = "a path (str or os.PathLike)" + (" or None" if optional else "")
-        raise TypeError(f"{function}(): {name} must be {what}, got {_got(value)}")
+        raise TypeError(f"{function}(): {name} must be {what}, got {described(value)}")
     if not os.fspath(value):
         raise InputError(name, "must name a file or directory, got an empty path")
 
@@ -50,20 +37,20 @@ def expect_path(value: Any, function: str, name: str, optional: bool = False) ->
 def expect_strings(value: Any, function: str, name: str, example: str) -> list[str]:
     """``value`` must be an iterable of str, not a str itself (``sets=["mesh.refine=1"]``)."""
     if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
-        raise TypeError(f"{function}(): {name} must be a list of strings such as [{example!r}], got {_got(value)}"
+        raise TypeError(f"{function}(): {name} must be a list of strings such as [{example!r}], got {described(value)}"
                         + ("; wrap it in a list" if isinstance(value, str) else ""))
     items = list(value)
     for item in items:
         if not isinstance(item, str):
             raise TypeError(f"{function}(): every item of {name} must be a string such as {example!r}, "
-                            f"got {_got(item)}")
+                            f"got {described(item)}")
     return items
 
 
 def expect_integer(value: Any, function: str, name: str, lo: int) -> int:
     """An integer >= ``lo`` (NumPy integers too; bools refused)."""
     if not isinstance(value, numbers.Integral) or isinstance(value, bool) or type(value).__name__ == "bool_":
-        raise TypeError(f"{function}(): {name} must be an integer >= {lo}, got {_got(value)}")
+        raise TypeError(f"{function}(): {name} must be an integer >= {lo}, got {described(value)}")
     if value < lo:
         raise InputError(name, f"must be an integer >= {lo}, got {value}")
     return int(value)
@@ -75,17 +62,17 @@ def expect_numbers(value: Any, function: str, name: str) -> list[float | int]:
         value = value.tolist()
     if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
         hint = "; parse a CLI spec with shellcontact.studies.parse_values" if isinstance(value, str) else ""
-        raise TypeError(f"{function}(): {name} must be a list of numbers, got {_got(value)}{hint}")
+        raise TypeError(f"{function}(): {name} must be a list of numbers, got {described(value)}{hint}")
     items = list(value)
     for item in items:
         if not isinstance(item, numbers.Real) or isinstance(item, bool):
-            raise TypeError(f"{function}(): every item of {name} must be a number, got {_got(item)}")
+            raise TypeError(f"{function}(): every item of {name} must be a number, got {described(item)}")
     return items
 
 
 def expect_callable(value: Any, function: str, name: str) -> None:
     if value is not None and not callable(value):
-        raise TypeError(f"{function}(): {name} must be a function or None, got {_got(value)}")
+        raise TypeError(f"{function}(): {name} must be a function or None, got {described(value)}")
 
 
 def expect_choice(value: Any, function: str, name: str, choices: Iterable[str]) -> None:
@@ -95,6 +82,6 @@ def expect_choice(value: Any, function: str, name: str, choices: Iterable[str]) 
     names = list(choices)
     if not isinstance(value, str):
         raise TypeError(f"{function}(): {name} must be a string, one of {', '.join(map(repr, names))}, "
-                        f"got {_got(value)}")
+                        f"got {described(value)}")
     if value not in names:
         raise InputError(name, f"must be one of {', '.join(map(repr, names))}, got {value!r}")

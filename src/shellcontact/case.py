@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import sys
 import tomllib
 from collections.abc import Iterable
@@ -21,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .arguments import expect_path, expect_strings
+from .arguments import described, expect_path, expect_strings
 from .errors import InputError
 from .geometry import Shell
 from .linalg import BACKENDS
@@ -213,6 +214,18 @@ class Case:
     units: str = "SI"  # [units] system: the labels of every output (units.SYSTEMS); numbers are never converted
     source: Path | None = None
     raw: dict[str, Any] = field(default_factory=dict)
+
+
+def expect_case(value: Any, function: str) -> None:
+    """``value`` must be a ``Case`` (a file name or a dictionary is read first): the API's first check."""
+    if isinstance(value, Case):
+        return
+    hint = ""
+    if isinstance(value, (str, os.PathLike)):
+        hint = f"; read the file first: {function}(shellcontact.load_case({str(value)!r}))"
+    elif isinstance(value, dict):
+        hint = f"; validate the dictionary first: {function}(shellcontact.case_from_dict(data))"
+    raise TypeError(f"{function}(): case must be a shellcontact.Case, got {described(value)}{hint}")
 
 
 def parse_material(shell: dict[str, Any], raw: Any, v: dict[str, Any] | None = None) -> Material:

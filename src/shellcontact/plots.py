@@ -114,16 +114,21 @@ def _degree_locator(span: float, most: int = 8):
                                default=90.0))
 
 
+def _vertex_map(result) -> Triangulation:
+    """The mesh as a triangulation of its vertices over (x, φ in degrees): the maps' coordinates."""
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    return Triangulation(x, np.degrees(s / sol.shell.radius), sol.space.mesh.t.T)
+
+
 def _contact_outline(ax, result, fields: dict[str, np.ndarray] | None = None) -> bool:
     """The boundary of the contact region (the active constraint vertices) on a map over (x, φ°)."""
     status = (fields if fields is not None and "contact_status" in fields else contact_vertex_fields(result)).get(
         "contact_status")
     if status is None or not np.any(status == 1) or not np.any(status != 1):
         return False
-    sol = result.solution
-    x, s = sol.space.mesh.p
-    tri = Triangulation(x, np.degrees(s / sol.shell.radius), sol.space.mesh.t.T)
-    ax.tricontour(tri, (np.asarray(status) == 1).astype(float), levels=[0.5], colors="c", linewidths=1.5)
+    inside = (np.asarray(status) == 1).astype(float)
+    ax.tricontour(_vertex_map(result), inside, levels=[0.5], colors="c", linewidths=1.5)
     ax.plot([], [], "c-", label="contact boundary")
     return True
 
@@ -153,10 +158,8 @@ def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.
     fields = vertex_fields(result) if fields is None else fields
     surface = max(("bottom", "middle", "top"), key=lambda k: float(np.max(fields[f"von_mises_{k}"])))
     vm = np.asarray(fields[f"von_mises_{surface}"], float)
-    sol = result.solution
-    x, s = sol.space.mesh.p
-    phi = np.degrees(s / sol.shell.radius)
-    tri = Triangulation(x, phi, sol.space.mesh.t.T)
+    tri = _vertex_map(result)
+    x, phi = tri.x, tri.y
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
     cs = ax.tricontourf(tri, vm, levels=_levels(vm), cmap="plasma")
@@ -324,9 +327,8 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     if p is None:
         return None
     sol = result.solution
-    x, s = sol.space.mesh.p
-    phi = np.degrees(s / sol.shell.radius)
-    tri = Triangulation(x, phi, sol.space.mesh.t.T)
+    tri = _vertex_map(result)
+    x, phi = tri.x, tri.y
     fig = Figure(figsize=(6.4, 4.8))
     ax = fig.add_subplot()
     p = np.asarray(p, float)

@@ -27,8 +27,8 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
-from .arguments import expect_callable, expect_case, expect_integer, expect_numbers, expect_path
-from .case import Case, case_from_dict, key_kind
+from .arguments import expect_callable, expect_integer, expect_numbers, expect_path
+from .case import Case, case_from_dict, expect_case, key_kind
 from .errors import InputError
 from .files import atomic_write_bytes, atomic_write_text, check_output_dir, write_json
 from .overrides import apply_overrides, split_path
