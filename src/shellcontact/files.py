@@ -33,14 +33,14 @@ def _naming(exc: OSError, path: Path) -> OSError:
     return type(exc)(exc.errno, exc.strerror or str(exc), str(path))
 
 
-def atomic_write_bytes(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, then rename it into place."""
+def _atomic(path: str | Path, write: Callable[[int, str], None]) -> None:
+    """``write(fd, tmp)`` fills a temporary file beside ``path`` (its descriptor and name), which is then
+    renamed into place; on any failure it is removed, and an OSError names ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
+        write(fd, tmp)
         os.chmod(tmp, _MODE)
         os.replace(tmp, path)
     except OSError as exc:
@@ -49,6 +49,16 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to a temporary file beside ``path``, then rename it into place."""
+
+    def write(fd: int, tmp: str) -> None:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+
+    _atomic(path, write)
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
@@ -57,20 +67,12 @@ def atomic_write_text(path: str | Path, text: str) -> None:
 
 def atomic_write_with(path: str | Path, writer: Callable[[str], None]) -> None:
     """Let ``writer(tmp_path)`` write a file by name (e.g. meshio), then rename it to ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
-    try:
+
+    def write(fd: int, tmp: str) -> None:
+        os.close(fd)
         writer(tmp)
-        os.chmod(tmp, _MODE)
-        os.replace(tmp, path)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise _naming(exc, path) from exc
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+
+    _atomic(path, write)
 
 
 def _json_default(obj: Any) -> Any:
