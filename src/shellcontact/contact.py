@@ -255,6 +255,8 @@ def _vertex_rows(space: ShellSpace, punch: Punch, twins) -> tuple[np.ndarray, np
         in_zone[slave] = False
         w[master] += w[slave]
         w[slave] = 0.0
+    if punch.extent is not None:  # a vertex that touches the body's part of the zone only at a point bears nothing
+        in_zone &= w > 0.0
     verts = np.nonzero(in_zone)[0]
     return verts, w[verts]
 

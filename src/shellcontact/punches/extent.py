@@ -87,11 +87,12 @@ def parse_extent(values: dict[str, Any] | None, where: str) -> Extent | None:
     points, normals = [], []
     for i, h in enumerate(values["half_spaces"]):
         n = np.asarray(h["normal"], float)
-        norm = float(np.linalg.norm(n))
-        if not norm > 0.0:
+        biggest = float(np.max(np.abs(n)))
+        if not biggest > 0.0:
             raise InputError(f"{where}.half_spaces.{i}.normal", f"must be a nonzero vector, got {n.tolist()}")
+        n = n / biggest  # first: |n| of [1e308, 1e308, 0] overflows
         points.append(np.asarray(h["point"], float))
-        normals.append(n / norm)
+        normals.append(n / np.linalg.norm(n))
     if not points and not np.any(np.isfinite(lower)):
         return None
     extent = Extent(lower, upper, np.reshape(points, (-1, 3)), np.reshape(normals, (-1, 3)))
@@ -117,8 +118,8 @@ def _check_not_empty(extent: Extent, where: str) -> None:
         rhs.append(float(n @ p))
     A = np.array(rows)
     scale = max(1.0, float(np.max(np.abs(rhs))))
-    # maximise r subject to a_i·X + r ≤ b_i (|a_i| = 1), 0 ≤ r ≤ scale
-    res = linprog(c=[0.0, 0.0, 0.0, -1.0], A_ub=np.hstack([A, np.ones((len(rows), 1))]), b_ub=rhs,
-                  bounds=[(None, None)] * 3 + [(0.0, scale)], method="highs")
-    if res.status != 0 or -res.fun <= 1e-12 * scale:
+    # in units of the largest coordinate: maximise r subject to a_i·X + r ≤ b_i (|a_i| = 1), 0 ≤ r ≤ 1
+    res = linprog(c=[0.0, 0.0, 0.0, -1.0], A_ub=np.hstack([A, np.ones((len(rows), 1))]), b_ub=np.array(rhs) / scale,
+                  bounds=[(None, None)] * 3 + [(0.0, 1.0)], method="highs")
+    if res.status != 0 or -res.fun <= 1e-12:
         raise InputError(where, f"is empty: no point lies inside {extent.describe()}")

@@ -50,6 +50,7 @@ OVERLAP_THICKNESSES = 10.0  # ... and below this many shell thicknesses
 ZONE_OVERLAP_FACTOR = 2.0  # automatic zone threshold g = max(2 overlap, 0.2 size)
 ZONE_SIZE_FRACTION = 0.2
 RESOLUTION_THICKNESS = 1e-6  # the round-off of Z on the shell must stay below this fraction of the thickness
+EDGE_CONTACT_FRACTION = 1e-4  # a finite body's first contact this close (× zone size) to a zone edge is on it
 
 
 @dataclass
@@ -344,7 +345,12 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
         ZONE_OVERLAP_FACTOR * punch.overlap, ZONE_SIZE_FRACTION * size)
     zone = given or automatic_zone(lambda M: punch.Z(M)[0], shell, punch.side_sign, gap, punch.first_contact, zmin)
     if zone is not None and spec.extent is not None:
+        whole = zone
         zone = body_zone(punch.body_distance, shell, punch.side_sign, zone)
+        if zone is None:
+            raise InputError(f"{where}.extent", f"the body ({spec.extent.describe()}) faces the shell only in a "
+                             f"strip too narrow to sample in the zone ({whole.describe()}), let alone to mesh: "
+                             "widen the extent")
     if zone is None or zmin >= gap:
         x, p = punch.first_contact
         raise InputError(
@@ -396,9 +402,21 @@ def focus_lines(punches: Sequence[Punch]) -> tuple[list[float], list[float]]:
     A coordinate along which Z does not vary (a ring: φ; a parallel roller: x; a coaxial sleeve:
     both) gives no line.
     """
-    xs = [p.first_contact[0] for p in punches if p.varies_x and math.isfinite(p.first_contact[0])]
-    ps = [p.first_contact[1] for p in punches if p.varies_phi and math.isfinite(p.first_contact[1])]
+    xs = [_on_edge(p.first_contact[0], p.zone.x, p) for p in punches
+          if p.varies_x and math.isfinite(p.first_contact[0])]
+    ps = [_on_edge(p.first_contact[1], [v for ab in p.zone.phi for v in ab], p) for p in punches
+          if p.varies_phi and math.isfinite(p.first_contact[1])]
     return xs, ps
+
+
+def _on_edge(value: float, edges, punch: Punch) -> float:
+    """A finite body first touching at its rim: the first-contact line is the zone edge found for the rim
+    (the two are located separately and differ by round-off; two node lines 1e-9 apart would be degenerate)."""
+    if punch.extent is None:
+        return value
+    span = max(abs(b - a) for a, b in zip(edges[::2], edges[1::2], strict=True)) if len(edges) > 1 else 1.0
+    near = [e for e in edges if abs(e - value) <= EDGE_CONTACT_FRACTION * span]
+    return near[0] if near else value
 
 
 def fitted_lines(punches: Sequence[Punch], shell: Shell) -> tuple[list[float], list[float]]:

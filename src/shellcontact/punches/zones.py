@@ -155,7 +155,9 @@ def body_zone(distance: Callable[[np.ndarray], np.ndarray], shell: Shell, side_s
     ``zone`` itself when every sample is on the body; None when none is. Each edge inside the zone is
     located by root finding as in ``automatic_zone`` (min over the other coordinate), so that a body
     edge x = const or φ = const becomes a zone edge and hence a node line of the mesh
-    (``placement.fitted_lines``). φ intervals of the zone the body does not face are dropped.
+    (``placement.fitted_lines``); as there, an edge within 2 % of a shell edge is moved onto it (no
+    thin strip of elements; the vertices beyond the body stay unconstrained). φ intervals of the zone
+    the body does not face are dropped.
     """
     def grid(pr: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         nx, nphi = _grid_counts(shell, zone.x, pr, n)
@@ -170,6 +172,10 @@ def body_zone(distance: Callable[[np.ndarray], np.ndarray], shell: Shell, side_s
         return zone
     if not any(g[2].any() for g in grids):
         return None
+    snap_x, snap_p = ZONE_SNAP * shell.length, ZONE_SNAP * (shell.beta - shell.alpha)
+
+    def snapped(v: float, lo: float, hi: float, tol: float) -> float:  # no thin strip at a shell edge
+        return lo if v - lo < tol else hi if hi - v < tol else v
 
     def h_x(x: float) -> float:
         return surface_minimum(distance, shell, side_sign, Zone((x, x), zone.phi), levels=4)[0]
@@ -191,7 +197,10 @@ def body_zone(distance: Callable[[np.ndarray], np.ndarray], shell: Shell, side_s
         j0, j1 = int(j[0]), int(j[-1])
         p0 = ps[0] if j0 == 0 else _edge(h_p, ps[j0], ps[j0 - 1])
         p1 = ps[-1] if j1 == ps.size - 1 else _edge(h_p, ps[j1], ps[j1 + 1])
+        if not shell.full:
+            p0, p1 = snapped(p0, shell.alpha, shell.beta, snap_p), snapped(p1, shell.alpha, shell.beta, snap_p)
         phis.append((float(p0), float(p1)))
+    x0, x1 = snapped(x0, shell.x_min, shell.x_max, snap_x), snapped(x1, shell.x_min, shell.x_max, snap_x)
     return Zone((float(x0), float(x1)), tuple(phis), zone.automatic, zone.gap)
 
 
