@@ -2,8 +2,9 @@
 
 A case is drawn in three steps:
 
-1. a cheap, valid template (a linear panel, a punched panel (a finite punch: its extent), a full cylinder, a force-controlled
-   custom punch) — so that a good share of the cases is solved and the exit-0 path is exercised;
+1. a cheap, valid template (a linear panel, a punched panel (a finite punch: its extent), a full
+   cylinder, a force-controlled custom punch) — so that a good share of the cases is solved and the
+   exit-0 path is exercised;
 2. a few edits, each at a key path found by walking ``case.CASE`` (and, inside ``[[punch]]``, the
    keys of the punch's shape in ``punches.SHAPES``): a valid value drawn from the ``Key``'s kind,
    range and choices, or a mutation — a wrong type, an out-of-range or extreme number, a huge

@@ -136,6 +136,12 @@ def _foot_distance(body, extent: Extent, X: np.ndarray) -> np.ndarray:
     return extent.distance(X - g * (Z / np.where(g2 > 0.0, g2, 1.0)))
 
 
+def _faces_nothing(punch: Punch, where: str) -> InputError:
+    extent = punch.extent.describe() if punch.extent is not None else "unbounded"
+    return InputError(f"{where}.extent", f"no point of the {punch.side} contact surface in the zone "
+                      f"({punch.zone.describe()}) faces the body ({extent})")
+
+
 def _check_custom(body: Custom, shell: Shell) -> None:
     """Evaluate a custom Z on a 3 × 3 grid of the shell: a bad function fails by its key before any work."""
     x = np.linspace(shell.x_min, shell.x_max, 3)
@@ -187,8 +193,7 @@ def _touch_travel(punch: Punch, shell: Shell, body_Z, where: str) -> float:
     tol = 1e-12 * scale
     f0, x0, p0 = f(0.0)
     if not math.isfinite(f0):
-        raise InputError(f"{where}.extent", f"no point of the {punch.side} contact surface in the zone "
-                         f"({zone.describe()}) faces the body ({punch.extent.describe() if punch.extent else ''})")
+        raise _faces_nothing(punch, where)
     if abs(f0) <= tol:
         return 0.0
     sgn = 1.0 if f0 > 0 else -1.0  # not touching: move forward; overlapping: back off
@@ -332,8 +337,7 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
         punch.center = center + punch.offset
     zmin, xm, pm = surface_minimum(punch.Z_on_body, shell, punch.side_sign, punch.zone)
     if not math.isfinite(zmin):
-        raise InputError(f"{where}.extent", f"no point of the {spec.side} contact surface in the zone "
-                         f"({punch.zone.describe()}) faces the body ({spec.extent.describe() if spec.extent else ''})")
+        raise _faces_nothing(punch, where)
     zp, xp, pp = _polish_minimum(punch, shell, xm, pm, 1e-4)
     if zp <= zmin:
         zmin, xm, pm = zp, xp, pp
