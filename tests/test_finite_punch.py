@@ -179,3 +179,39 @@ def test_body_that_faces_no_part_of_the_shell_is_refused():
     with pytest.raises(InputError) as err:
         shellcontact.solve(case_from_dict(_panel({**SLEEVE, "extent": {"x": [2.0, 3.0]}}, 8)))
     assert err.value.field == "punch.0.extent"
+
+
+def test_body_across_the_seam_of_a_full_cylinder():
+    """A roller of finite height (z ∈ [−0.03, 0.03]) at the side of a full pipe, across the seam φ = 0 ≡ 360°,
+    with a zone given in x only (the whole circle): the zone keeps the arcs the body faces, the one across the
+    seam as two intervals meeting there, whose edges are where the foot of the contact surface on the roller
+    reaches z = ±0.03 (found here independently by root finding); only points opposite the body are rows."""
+    from scipy.optimize import brentq
+
+    roller = {"shape": "cylinder", "center": [0.0, 0.151, 0.0], "axis": [1.0, 0.0, 0.0], "radius": 0.05,
+              "direction": [0.0, -1.0, 0.0], "indentation": 1e-4, "zone": {"x": [-0.3, 0.3]},
+              "extent": {"x": [-0.1, 0.1], "z": [-0.03, 0.03]}}
+    data = {"shell": {"radius": 0.1, "length": 1.0, "full": True, "thickness": 0.002, "young": 2.1e11,
+                      "poisson": 0.3},
+            "supports": {"x_min": "clamped", "x_max": "clamped"},
+            "mesh": {"nx": 8, "nphi": 24}, "punch": [roller], "solver": {"method": "active-set"}}
+    res, summ = _solve(data)
+    op = res.contact.operator
+    punch = op.punches[0]
+    cy = 0.151 + punch.offset[1]  # the placed roller's axis: y = cy, z = 0
+    r_out = 0.1 + 0.001  # the outer contact surface
+
+    def foot_z(phi: float) -> float:
+        y, z = r_out * math.cos(phi), r_out * math.sin(phi)
+        return 0.05 * z / math.hypot(y - cy, z)
+
+    edge = brentq(lambda p: foot_z(p) - 0.03, 0.0, 0.9, xtol=1e-15)
+    near = [(a, b) for a, b in punch.zone.phi if a == 0.0 or b == pytest.approx(2 * math.pi, abs=1e-12)]
+    assert len(near) == 2
+    assert near[0] == (0.0, pytest.approx(edge, abs=1e-9))
+    assert near[1] == (pytest.approx(2 * math.pi - edge, abs=1e-9), pytest.approx(2 * math.pi, abs=1e-12))
+    mesh_phi = res.solution.space.mesh.p[1] / 0.1
+    assert np.any(np.abs(mesh_phi - edge) < 1e-9) and np.any(np.abs(mesh_phi - (2 * math.pi - edge)) < 1e-9)
+    assert punch.zone.x == (pytest.approx(-0.1, abs=1e-12), pytest.approx(0.1, abs=1e-12))
+    assert np.all(punch.on_body(op.points, tol=1e-9))
+    assert summ["contact"][0]["force"][1] < 0.0  # the roller pushes the pipe toward −y

@@ -156,8 +156,9 @@ def body_zone(distance: Callable[[np.ndarray], np.ndarray], shell: Shell, side_s
     located by root finding as in ``automatic_zone`` (min over the other coordinate), so that a body
     edge x = const or φ = const becomes a zone edge and hence a node line of the mesh
     (``placement.fitted_lines``); as there, an edge within 2 % of a shell edge is moved onto it (no
-    thin strip of elements; the vertices beyond the body stay unconstrained). φ intervals of the zone
-    the body does not face are dropped.
+    thin strip of elements; the vertices beyond the body stay unconstrained). In φ each arc the body
+    faces becomes one interval (on a full circle an arc across the seam φ = α ≡ β becomes the two
+    intervals that meet there); arcs it does not face are dropped.
     """
     def grid(pr: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         nx, nphi = _grid_counts(shell, zone.x, pr, n)
@@ -193,15 +194,25 @@ def body_zone(distance: Callable[[np.ndarray], np.ndarray], shell: Shell, side_s
         def h_p(phi: float) -> float:
             return surface_minimum(distance, shell, side_sign, Zone(zone.x, ((phi, phi),)), levels=4)[0]
 
-        j = np.nonzero(inside.any(axis=0))[0]
-        j0, j1 = int(j[0]), int(j[-1])
-        p0 = ps[0] if j0 == 0 else _edge(h_p, ps[j0], ps[j0 - 1])
-        p1 = ps[-1] if j1 == ps.size - 1 else _edge(h_p, ps[j1], ps[j1 + 1])
-        if not shell.full:
-            p0, p1 = snapped(p0, shell.alpha, shell.beta, snap_p), snapped(p1, shell.alpha, shell.beta, snap_p)
-        phis.append((float(p0), float(p1)))
+        for j0, j1 in _runs(inside.any(axis=0)):  # on a full circle a run may end at β and another start at α
+            p0 = ps[0] if j0 == 0 else _edge(h_p, ps[j0], ps[j0 - 1])
+            p1 = ps[-1] if j1 == ps.size - 1 else _edge(h_p, ps[j1], ps[j1 + 1])
+            if not shell.full:
+                p0, p1 = snapped(p0, shell.alpha, shell.beta, snap_p), snapped(p1, shell.alpha, shell.beta, snap_p)
+            phis.append((float(p0), float(p1)))
     x0, x1 = snapped(x0, shell.x_min, shell.x_max, snap_x), snapped(x1, shell.x_min, shell.x_max, snap_x)
     return Zone((float(x0), float(x1)), tuple(phis), zone.automatic, zone.gap)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """First and last index of every run of True in ``mask``."""
+    idx = np.nonzero(mask)[0]
+    if idx.size == 0:
+        return []
+    breaks = np.nonzero(np.diff(idx) > 1)[0]
+    starts = np.concatenate([[idx[0]], idx[breaks + 1]])
+    ends = np.concatenate([idx[breaks], [idx[-1]]])
+    return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
 
 
 def _edge(h: Callable[[float], float], inside: float, outside: float) -> float:
