@@ -149,7 +149,7 @@ def given_zone(x: tuple[float, float] | None, phi: tuple[float, float] | None, s
 
 def body_zone(distance: Callable[[np.ndarray], np.ndarray], shell: Shell, side_sign: float, zone: Zone,
               n: int = 201) -> Zone | None:
-    """The part of ``zone`` opposite a body of finite extent: the bounding box in (x, φ) of {distance ≤ 0}
+    """The part of ``zone`` opposite a body of finite extent: the x range and the φ arcs of {distance ≤ 0}
     on the contact surface within ``zone`` (distance: points (3, k) → (k,), ``Punch.body_distance``).
 
     ``zone`` itself when every sample is on the body; None when none is. Each edge inside the zone is
