@@ -2,8 +2,9 @@
 
 A case is drawn in three steps:
 
-1. a cheap, valid template (a linear panel, a punched panel, a full cylinder, a force-controlled
-   custom punch) — so that a good share of the cases is solved and the exit-0 path is exercised;
+1. a cheap, valid template (a linear panel, a punched panel (a finite punch: its extent), a full
+   cylinder, a force-controlled custom punch) — so that a good share of the cases is solved and the
+   exit-0 path is exercised;
 2. a few edits, each at a key path found by walking ``case.CASE`` (and, inside ``[[punch]]``, the
    keys of the punch's shape in ``punches.SHAPES``): a valid value drawn from the ``Key``'s kind,
    range and choices, or a mutation — a wrong type, an out-of-range or extreme number, a huge
@@ -116,7 +117,9 @@ PUNCHED = {
     "supports": {"x_min": "clamped", "x_max": "clamped", "phi_min": "clamped", "phi_max": "clamped"},
     "mesh": {"nx": 4, "nphi": 4},
     "punch": [{"shape": "sphere", "center": [0.0, 0.0, 3.5], "radius": 2.0, "direction": [0.0, 0.0, -1.0],
-               "indentation": 1e-2, "side": "outer", "zone": {"x": [-0.2, 0.2], "phi": [78.0, 102.0]}}],
+               "indentation": 1e-2, "side": "outer", "zone": {"x": [-0.2, 0.2], "phi": [78.0, 102.0]},
+               "extent": {"x": [-0.3, 0.3], "z": [1.0, 2.0],
+                          "half_spaces": [{"point": [0.0, 0.3, 0.0], "normal": [0.0, 1.0, 0.0]}]}}],
     "solver": {"method": "active-set", "tolerance": 1e-10},
     "probes": [{"x": 0.0, "phi": 90.0}],
 }

@@ -12,6 +12,10 @@ linearised gap (MODEL.md §5) is Π = G + B U (+ D δ for force-controlled punch
 D_ij = −∇Z(M_i)·d_j for the rows of force-controlled punch j and δ_j its unknown travel; the
 energy then gains −Σ_j P_j δ_j).
 
+A punch of finite extent (``Punch.extent``) constrains only the points opposite its body
+(``Punch.on_body``): the vertices of the zone that face it (with the mesh tolerance, so the body's
+edge counts) and the triangles whose centroid does; Ω_c below is then the part of the zone the body faces.
+
 Weights: ω_i = ∫_{Ω_c,h} ψ_i dΩ (dΩ = dx ds, the mid-surface area), ψ_i the P1 hat function,
 Ω_c,h the union of the triangles whose centroid lies in the zone Ω_c — i.e. row sums of the
 lumped P1 surface mass matrix over the zone. When the zone edges are node lines (fitted_lines)
@@ -219,10 +223,19 @@ def _seam_twins(space: ShellSpace) -> tuple[np.ndarray, np.ndarray] | None:
     return hi, lo
 
 
+def _on_body(space: ShellSpace, punch: Punch, x: np.ndarray, s: np.ndarray, tol: float = 0.0) -> np.ndarray:
+    """Contact-surface points at (x, s) opposite a punch of finite extent (all True for an unbounded one)."""
+    sh = space.mesh.shell
+    if punch.extent is None:
+        return np.ones(np.shape(x), dtype=bool)
+    phi = s / sh.radius
+    return punch.on_body(sh.point(x, phi, punch.zeta(sh, x, phi)), tol)
+
+
 def _zone_elements(space: ShellSpace, punch: Punch) -> np.ndarray:
     m = space.mesh
     c = m.p[:, m.t].mean(axis=1)
-    return np.nonzero(punch.zone.contains(c[0], c[1] / m.shell.radius))[0]
+    return np.nonzero(punch.zone.contains(c[0], c[1] / m.shell.radius) & _on_body(space, punch, c[0], c[1]))[0]
 
 
 def _vertex_rows(space: ShellSpace, punch: Punch, twins) -> tuple[np.ndarray, np.ndarray]:
@@ -234,6 +247,7 @@ def _vertex_rows(space: ShellSpace, punch: Punch, twins) -> tuple[np.ndarray, np
     w = np.zeros(nv)
     np.add.at(w, m.t[:, elems].ravel(), np.repeat(area[None, :] / 3.0, 3, axis=0).ravel())
     in_zone = punch.zone.contains(m.p[0], m.p[1] / m.shell.radius, tol=m._tol())
+    in_zone &= _on_body(space, punch, m.p[0], m.p[1], tol=m._tol())
     in_zone[m.t[:, elems].ravel()] = True
     if twins is not None:
         slave, master = twins
@@ -241,6 +255,8 @@ def _vertex_rows(space: ShellSpace, punch: Punch, twins) -> tuple[np.ndarray, np
         in_zone[slave] = False
         w[master] += w[slave]
         w[slave] = 0.0
+    if punch.extent is not None:  # a vertex that touches the body's part of the zone only at a point bears nothing
+        in_zone &= w > 0.0
     verts = np.nonzero(in_zone)[0]
     return verts, w[verts]
 
@@ -434,7 +450,7 @@ def contact_zone(space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, del
             gap -= step * (p.direction @ g)
             travel = abs(step)
         tol = rel_gap * travel
-        touching = (gap <= tol) & p.zone.contains(x, phi)
+        touching = (gap <= tol) & p.zone.contains(x, phi) & p.on_body(sh.point(x, phi, zeta))
         area = float(((np.abs(det)[:, None] * W[None, :]).ravel())[touching].sum())
         entry: dict = {"area": area, "gap_tolerance": float(tol)}
         if touching.any():

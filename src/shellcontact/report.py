@@ -207,6 +207,13 @@ def _describe_case(case: Any, s: Mapping[str, Any]) -> str:
         sized = isinstance(size, float) and math.isfinite(size)
         shape = ("the outside of a " if p.inverted else "a ") + p.shape + (
             f" of radius {q(size, 'length')}" if sized else "")
+        if p.extent is not None:  # a body of finite size: its box and cutting planes
+            e = p.extent
+            limits = [f"{axis} from {q(e.lower[k], 'length')} to {q(e.upper[k], 'length')}"
+                      for k, axis in enumerate("xyz") if math.isfinite(e.lower[k])]
+            if len(e.points):
+                limits.append(f"{len(e.points)} cutting plane{'s' * (len(e.points) != 1)}")
+            shape += " limited to " + ", ".join(limits)
         if p.mode == "indentation":
             how = f"pressed {q(p.indentation, 'length')} past first contact"
         elif p.mode == "force":

@@ -18,10 +18,15 @@ just-touching one), with g = ``zone.gap`` or max(2·overlap, 0.2·size), overlap
 radius. For force control the travel is unknown in advance: if the contact zone reaches the edge
 of the automatic zone, give a larger gap or an explicit zone.
 
+A punch of finite ``extent`` is a body: placement and the first contact use Z only where the body is
+(``Punch.Z_on_body``, +inf elsewhere), and the zone (given or automatic) is cut to the part of it
+opposite the body (``zones.body_zone``), so the body's edges become zone edges and node lines.
+
 Refused (InputError naming the key): a zone outside Ω or empty, a punch that never touches the
 shell moving along ``direction``, a punch whose smallest gap over its zone is not below g, an
-overlap larger than the shell can take (> 0.2·a, or > 10·t: far outside linear shell theory), and
-a custom function that raises, returns wrong shapes or non-finite values on the shell.
+overlap larger than the shell can take (> 0.2·a, or > 10·t: far outside linear shell theory), a
+body whose extent faces no point of the contact surface in the zone, and a custom function that
+raises, returns wrong shapes or non-finite values on the shell.
 """
 
 from __future__ import annotations
@@ -35,15 +40,17 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry import Shell, frame
+from .extent import Extent
 from .shapes import Custom
 from .spec import PunchSpec, parse_punch
-from .zones import Zone, automatic_zone, contact_surface, given_zone, surface_minimum, whole_shell
+from .zones import Zone, automatic_zone, body_zone, contact_surface, given_zone, surface_minimum, whole_shell
 
 OVERLAP_RADIUS_FRACTION = 0.2  # overlap must stay below this fraction of the shell radius
 OVERLAP_THICKNESSES = 10.0  # ... and below this many shell thicknesses
 ZONE_OVERLAP_FACTOR = 2.0  # automatic zone threshold g = max(2 overlap, 0.2 size)
 ZONE_SIZE_FRACTION = 0.2
 RESOLUTION_THICKNESS = 1e-6  # the round-off of Z on the shell must stay below this fraction of the thickness
+EDGE_CONTACT_FRACTION = 1e-4  # a finite body's first contact this close (× zone size) to a zone edge is on it
 
 
 @dataclass
@@ -76,6 +83,7 @@ class Punch:
     varies_x: bool = True
     varies_phi: bool = True
     size: float = math.inf
+    extent: Extent | None = None  # a body of finite size (in shape coordinates); None: unbounded
 
     @property
     def where(self) -> str:
@@ -100,9 +108,38 @@ class Punch:
     def __call__(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.Z(X)
 
+    def body_distance(self, X: np.ndarray) -> np.ndarray:
+        """Where the body is (``extent``): ≤ 0 at points X (3, n) whose foot on the shape lies in the extent."""
+        X = np.asarray(X, dtype=float).reshape(3, -1)
+        if self.extent is None:
+            return np.full(X.shape[1], -np.inf)
+        return _foot_distance(self.body, self.extent, X - self.offset[:, None])
+
+    def on_body(self, X: np.ndarray, tol: float = 0.0) -> np.ndarray:
+        """Points X (3, n) opposite the body: there, and only there, the contact condition applies."""
+        return self.body_distance(X) <= tol
+
+    def Z_on_body(self, X: np.ndarray) -> np.ndarray:
+        """Z where the body is, +inf elsewhere: the gap to the finite body, for placement and zones."""
+        Z = self.Z(X)[0]
+        return Z if self.extent is None else np.where(self.on_body(X), Z, np.inf)
+
     def zeta(self, shell: Shell, x: np.ndarray, phi: np.ndarray) -> np.ndarray:
         return 0.5 * self.side_sign * shell.t(np.asarray(x, float), phi)
 
+
+
+def _foot_distance(body, extent: Extent, X: np.ndarray) -> np.ndarray:
+    """``extent.distance`` of the foot F = X − Z ∇Z/|∇Z|² of the points X (shape coordinates) on {Z = 0}."""
+    Z, g = body(X)
+    g2 = np.sum(g * g, axis=0)
+    return extent.distance(X - g * (Z / np.where(g2 > 0.0, g2, 1.0)))
+
+
+def _faces_nothing(punch: Punch, where: str) -> InputError:
+    extent = punch.extent.describe() if punch.extent is not None else "unbounded"
+    return InputError(f"{where}.extent", f"no point of the {punch.side} contact surface in the zone "
+                      f"({punch.zone.describe()}) faces the body ({extent})")
 
 
 def _check_custom(body: Custom, shell: Shell) -> None:
@@ -155,6 +192,8 @@ def _touch_travel(punch: Punch, shell: Shell, body_Z, where: str) -> float:
     tmax = 20.0 * scale
     tol = 1e-12 * scale
     f0, x0, p0 = f(0.0)
+    if not math.isfinite(f0):
+        raise _faces_nothing(punch, where)
     if abs(f0) <= tol:
         return 0.0
     sgn = 1.0 if f0 > 0 else -1.0  # not touching: move forward; overlapping: back off
@@ -231,7 +270,7 @@ def _polish_minimum(punch: Punch, shell: Shell, x: float, phi: float, width: flo
                 with contextlib.suppress(RuntimeError):  # not converged: keep the grid minimiser
                     c[k] = float(brentq(f, lo, hi, xtol=1e-15 * max(1.0, abs(c[k])), rtol=1e-15))
     M = contact_surface(shell, np.array([c[0]]), np.array([c[1]]), side)
-    return float(punch.Z(M)[0][0]), c[0], c[1]
+    return float(punch.Z_on_body(M)[0]), c[0], c[1]
 
 
 def check_linear_range(depth: float, shell: Shell, key: str, what: str) -> None:
@@ -279,12 +318,16 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
         zone=given or whole_shell(shell),
         center=center.copy(),
         size=size,
+        extent=spec.extent,
     )
     sgn = -1.0 if spec.inverted else 1.0
 
-    def body_Z(X):
+    def body_Z(X):  # shape coordinates; +inf where the finite body is not
         Z, g = body(X)
-        return sgn * Z, sgn * g
+        Z = sgn * Z
+        if spec.extent is not None:
+            Z = np.where(_foot_distance(body, spec.extent, X) <= 0.0, Z, np.inf)
+        return Z, sgn * g
 
     if mode != "fixed":
         t0 = _touch_travel(punch, shell, body_Z, where)
@@ -292,7 +335,9 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
         travel = t0 + (spec.indentation if mode == "indentation" else 0.0)
         punch.offset = travel * direction
         punch.center = center + punch.offset
-    zmin, xm, pm = surface_minimum(lambda M: punch.Z(M)[0], shell, punch.side_sign, punch.zone)
+    zmin, xm, pm = surface_minimum(punch.Z_on_body, shell, punch.side_sign, punch.zone)
+    if not math.isfinite(zmin):
+        raise _faces_nothing(punch, where)
     zp, xp, pp = _polish_minimum(punch, shell, xm, pm, 1e-4)
     if zp <= zmin:
         zmin, xm, pm = zp, xp, pp
@@ -303,6 +348,13 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
     gap = spec.zone_gap if spec.zone_gap is not None else max(
         ZONE_OVERLAP_FACTOR * punch.overlap, ZONE_SIZE_FRACTION * size)
     zone = given or automatic_zone(lambda M: punch.Z(M)[0], shell, punch.side_sign, gap, punch.first_contact, zmin)
+    if zone is not None and spec.extent is not None:
+        whole = zone
+        zone = body_zone(punch.body_distance, shell, punch.side_sign, zone)
+        if zone is None:
+            raise InputError(f"{where}.extent", f"the body ({spec.extent.describe()}) faces the shell only in a "
+                             f"strip too narrow to sample in the zone ({whole.describe()}), let alone to mesh: "
+                             "widen the extent")
     if zone is None or zmin >= gap:
         x, p = punch.first_contact
         raise InputError(
@@ -354,9 +406,21 @@ def focus_lines(punches: Sequence[Punch]) -> tuple[list[float], list[float]]:
     A coordinate along which Z does not vary (a ring: φ; a parallel roller: x; a coaxial sleeve:
     both) gives no line.
     """
-    xs = [p.first_contact[0] for p in punches if p.varies_x and math.isfinite(p.first_contact[0])]
-    ps = [p.first_contact[1] for p in punches if p.varies_phi and math.isfinite(p.first_contact[1])]
+    xs = [_on_edge(p.first_contact[0], p.zone.x, p) for p in punches
+          if p.varies_x and math.isfinite(p.first_contact[0])]
+    ps = [_on_edge(p.first_contact[1], [v for ab in p.zone.phi for v in ab], p) for p in punches
+          if p.varies_phi and math.isfinite(p.first_contact[1])]
     return xs, ps
+
+
+def _on_edge(value: float, edges, punch: Punch) -> float:
+    """A finite body first touching at its rim: the first-contact line is the zone edge found for the rim
+    (the two are located separately and differ by round-off; two node lines 1e-9 apart would be degenerate)."""
+    if punch.extent is None:
+        return value
+    span = max(abs(b - a) for a, b in zip(edges[::2], edges[1::2], strict=True)) if len(edges) > 1 else 1.0
+    near = [e for e in edges if abs(e - value) <= EDGE_CONTACT_FRACTION * span]
+    return near[0] if near else value
 
 
 def fitted_lines(punches: Sequence[Punch], shell: Shell) -> tuple[list[float], list[float]]:

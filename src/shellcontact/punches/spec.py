@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..schema import Key, Table
+from .extent import EXTENT, Extent, parse_extent
 from .shapes import SHAPES, unit
 
 ZONE = Table("zone", (
@@ -40,6 +41,9 @@ PUNCH = Table("punch", (
         default=None, default_doc="–"),
     Key("zone", "table", "the candidate contact zone Ω_c", table=ZONE, default=None, default_doc="automatic",
         allowed="see below"),
+    Key("extent", "table", "a body of finite size: the shape is kept inside a box and half-spaces (global "
+        "coordinates of the given position; they move with the punch); contact only where the body is",
+        table=EXTENT, default=None, default_doc="unbounded", allowed="see below"),
 ))
 
 
@@ -64,6 +68,7 @@ class PunchSpec:
     zone_x: tuple[float, float] | None = None
     zone_phi: tuple[float, float] | None = None
     zone_gap: float | None = None
+    extent: Extent | None = None  # None: the shape is unbounded
 
     @property
     def where(self) -> str:
@@ -112,6 +117,7 @@ def parse_punch(raw: Any, index: int = 0) -> PunchSpec:
         zone_x=zone["x"],
         zone_phi=zone["phi"],
         zone_gap=zone["gap"],
+        extent=parse_extent(v["extent"], f"{where}.extent"),
     )
 
 

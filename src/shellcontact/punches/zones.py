@@ -147,6 +147,74 @@ def given_zone(x: tuple[float, float] | None, phi: tuple[float, float] | None, s
     return Zone(x=(float(x0), float(x1)), phi=tuple((float(a), float(b)) for a, b in phis))
 
 
+def body_zone(distance: Callable[[np.ndarray], np.ndarray], shell: Shell, side_sign: float, zone: Zone,
+              n: int = 201) -> Zone | None:
+    """The part of ``zone`` opposite a body of finite extent: the x range and the φ arcs of {distance ≤ 0}
+    on the contact surface within ``zone`` (distance: points (3, k) → (k,), ``Punch.body_distance``).
+
+    ``zone`` itself when every sample is on the body; None when none is. Each edge inside the zone is
+    located by root finding as in ``automatic_zone`` (min over the other coordinate), so that a body
+    edge x = const or φ = const becomes a zone edge and hence a node line of the mesh
+    (``placement.fitted_lines``); as there, an edge within 2 % of a shell edge is moved onto it (no
+    thin strip of elements; the vertices beyond the body stay unconstrained). In φ each arc the body
+    faces becomes one interval (on a full circle an arc across the seam φ = α ≡ β becomes the two
+    intervals that meet there); arcs it does not face are dropped.
+    """
+    def grid(pr: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        nx, nphi = _grid_counts(shell, zone.x, pr, n)
+        xs = np.linspace(zone.x[0], zone.x[1], nx)
+        ps = np.linspace(pr[0], pr[1], nphi)
+        X, P = np.meshgrid(xs, ps, indexing="ij")
+        inside = distance(contact_surface(shell, X.ravel(), P.ravel(), side_sign)).reshape(X.shape) <= 0.0
+        return xs, ps, inside
+
+    grids = [grid(pr) for pr in zone.phi]
+    if all(g[2].all() for g in grids):
+        return zone
+    if not any(g[2].any() for g in grids):
+        return None
+    snap_x, snap_p = ZONE_SNAP * shell.length, ZONE_SNAP * (shell.beta - shell.alpha)
+
+    def snapped(v: float, lo: float, hi: float, tol: float) -> float:  # no thin strip at a shell edge
+        return lo if v - lo < tol else hi if hi - v < tol else v
+
+    def h_x(x: float) -> float:
+        return surface_minimum(distance, shell, side_sign, Zone((x, x), zone.phi), levels=4)[0]
+
+    x0, x1 = math.inf, -math.inf
+    phis: list[tuple[float, float]] = []
+    for xs, ps, inside in grids:
+        if not inside.any():
+            continue
+        i = np.nonzero(inside.any(axis=1))[0]
+        i0, i1 = int(i[0]), int(i[-1])
+        x0 = min(x0, xs[0] if i0 == 0 else _edge(h_x, xs[i0], xs[i0 - 1]))
+        x1 = max(x1, xs[-1] if i1 == xs.size - 1 else _edge(h_x, xs[i1], xs[i1 + 1]))
+
+        def h_p(phi: float) -> float:
+            return surface_minimum(distance, shell, side_sign, Zone(zone.x, ((phi, phi),)), levels=4)[0]
+
+        for j0, j1 in _runs(inside.any(axis=0)):  # on a full circle a run may end at β and another start at α
+            p0 = ps[0] if j0 == 0 else _edge(h_p, ps[j0], ps[j0 - 1])
+            p1 = ps[-1] if j1 == ps.size - 1 else _edge(h_p, ps[j1], ps[j1 + 1])
+            if not shell.full:
+                p0, p1 = snapped(p0, shell.alpha, shell.beta, snap_p), snapped(p1, shell.alpha, shell.beta, snap_p)
+            phis.append((float(p0), float(p1)))
+    x0, x1 = snapped(x0, shell.x_min, shell.x_max, snap_x), snapped(x1, shell.x_min, shell.x_max, snap_x)
+    return Zone((float(x0), float(x1)), tuple(phis), zone.automatic, zone.gap)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """First and last index of every run of True in ``mask``."""
+    idx = np.nonzero(mask)[0]
+    if idx.size == 0:
+        return []
+    breaks = np.nonzero(np.diff(idx) > 1)[0]
+    starts = np.concatenate([[idx[0]], idx[breaks + 1]])
+    ends = np.concatenate([idx[breaks], [idx[-1]]])
+    return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
+
+
 def _edge(h: Callable[[float], float], inside: float, outside: float) -> float:
     """The boundary of {h < 0} between a grid point inside and one outside (conservative fallback)."""
     from scipy.optimize import brentq
