@@ -1,0 +1,138 @@
+"""Where a study's tasks run: in this process one after another, or as Dask tasks.
+
+``open_engine(workers, scheduler)`` gives an engine whose ``run(fn, tasks, done)`` calls ``fn(*task)`` for
+every task and ``done(k, value)`` in this process as each finishes (in any order):
+
+* ``workers == 0`` (and no scheduler): ``Serial``, in this process, in order;
+* otherwise ``Dask``: on an existing cluster (``scheduler`` ``tcp://host:port``, or the environment variable
+  ``SHELLCONTACT_SCHEDULER``), else on an embedded ``LocalCluster`` of ``workers`` processes (None: one per
+  core) with one thread each and one BLAS thread (Dask's ``distributed.nanny.pre-spawn-environ``).
+
+A task lost with a killed worker is run again on another (Dask's ``distributed.scheduler.allowed-failures``).
+On an error or an interruption the tasks are cancelled and an embedded cluster's workers are killed at once
+(a graceful close would wait for the running tasks). Dask is imported only here, when an engine is opened.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import secrets
+import signal
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from .errors import InputError
+
+SCHEDULER_ENV = "SHELLCONTACT_SCHEDULER"
+log = logging.getLogger("shellcontact")
+
+Done = Callable[[int, Any], None]
+
+
+def scheduler_address(scheduler: str | None) -> str | None:
+    """``--scheduler``, else ``SHELLCONTACT_SCHEDULER``, else None (an embedded cluster)."""
+    address = scheduler if scheduler is not None else os.environ.get(SCHEDULER_ENV) or None
+    if address is not None and "://" not in address:
+        where = "--scheduler" if scheduler is not None else SCHEDULER_ENV
+        raise InputError(where, f"expected a scheduler address such as tcp://host:8786, got {address!r}")
+    return address
+
+
+class Serial:
+    """Every task in this process, in order."""
+
+    workers = 1
+    description = "in this process"
+    dashboard: str | None = None
+
+    def run(self, fn: Callable[..., Any], tasks: Sequence[tuple], done: Done) -> None:
+        for k, args in enumerate(tasks):
+            done(k, fn(*args))
+
+    def close(self, abort: bool = False) -> None:
+        pass
+
+
+class Dask:
+    """A Dask client on an existing scheduler or on an embedded ``LocalCluster``."""
+
+    def __init__(self, workers: int | None, address: str | None) -> None:
+        import distributed
+
+        self.cluster = None
+        if address is None:
+            n = (os.cpu_count() or 1) if workers is None else workers
+            self.cluster = distributed.LocalCluster(
+                n_workers=n, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+                dashboard_address=":0" if _has_dashboard() else None)
+            self.client = distributed.Client(self.cluster)
+            self.description = f"an embedded Dask cluster of {n} worker process{'es' * (n != 1)}"
+        else:
+            try:
+                self.client = distributed.Client(address, timeout="20s")
+            except (OSError, TimeoutError) as exc:
+                raise InputError("--scheduler", f"cannot reach the Dask scheduler at {address}: {exc}") from None
+            self.description = f"the Dask cluster at {address}"
+        self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
+        if address is not None:
+            self.description += f" ({self.workers} worker{'s' * (self.workers != 1)} now)"
+        self.dashboard = self.client.dashboard_link if address is not None or _has_dashboard() else None
+
+    def run(self, fn: Callable[..., Any], tasks: Sequence[tuple], done: Done) -> None:
+        from distributed import as_completed
+
+        token = secrets.token_hex(4)
+        futures = [self.client.submit(fn, *args, key=f"shellcontact-{token}-{k}", pure=False)
+                   for k, args in enumerate(tasks)]
+        index = {f.key: k for k, f in enumerate(futures)}
+        try:
+            for fut in as_completed(futures):
+                done(index[fut.key], fut.result())
+        except BaseException:
+            self.client.cancel(futures, force=True)
+            raise
+
+    def close(self, abort: bool = False) -> None:
+        if abort and self.cluster is not None:
+            for nanny in list(self.cluster.workers.values()):  # kill the running tasks now
+                pid = getattr(getattr(nanny, "process", None), "pid", None)
+                if pid:
+                    try:
+                        os.kill(pid, signal.SIGKILL)
+                    except ProcessLookupError:
+                        pass
+        timeout = 2 if abort else 20
+        for part in (self.client, self.cluster):
+            if part is not None:
+                try:
+                    part.close(timeout=timeout)
+                except Exception as exc:  # noqa: BLE001 — closing after the work is done or abandoned
+                    log.debug("closing %s: %s", type(part).__name__, exc)
+
+
+def _has_dashboard() -> bool:
+    """The dashboard needs bokeh (``pip install bokeh``)."""
+    import importlib.util
+
+    return importlib.util.find_spec("bokeh") is not None
+
+
+class open_engine:  # noqa: N801 — used as a context manager, like open()
+    """``with open_engine(workers, scheduler) as engine: engine.run(...)``; an exception aborts the engine."""
+
+    def __init__(self, workers: int | None, scheduler: str | None) -> None:
+        self.workers = workers
+        self.address = scheduler_address(scheduler)
+        self.engine: Serial | Dask | None = None
+
+    def __enter__(self) -> Serial | Dask:
+        if self.workers == 0 and self.address is None:
+            self.engine = Serial()
+        else:
+            self.engine = Dask(self.workers, self.address)
+        return self.engine
+
+    def __exit__(self, kind, exc, tb) -> None:
+        if self.engine is not None:
+            self.engine.close(abort=kind is not None)
