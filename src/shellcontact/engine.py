@@ -63,8 +63,9 @@ class Dask:
         self.cluster = None
         if address is None:
             n = (os.cpu_count() or 1) if workers is None else workers
+            # silence_logs: a failed task is raised here (its own error), not also logged by its worker
             self.cluster = distributed.LocalCluster(
-                n_workers=n, threads_per_worker=1, processes=True, silence_logs=logging.ERROR,
+                n_workers=n, threads_per_worker=1, processes=True, silence_logs=logging.CRITICAL,
                 dashboard_address=":0" if _has_dashboard() else None)
             self.client = distributed.Client(self.cluster)
             self.description = f"an embedded Dask cluster of {n} worker process{'es' * (n != 1)}"
