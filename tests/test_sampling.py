@@ -4,6 +4,7 @@ the rank correlation the sensitivity figure shows. The distributions are checked
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -17,13 +18,17 @@ from shellcontact.studies import rank_correlation
 SPECS = ["shell.thickness=uniform(0.2,0.3)", "material.young=normal(4.32e8,2e7)", "shell.radius=lognormal(25,0.1)"]
 
 
-def cdf(spec, x: float) -> float:
-    """The distribution function from scipy, independent of sampling's own."""
+def scipy_distribution(spec):
+    """The distribution from scipy, independent of sampling's own."""
     if spec.dist == "uniform":
-        return stats.uniform(spec.a, spec.b - spec.a).cdf(x)
+        return stats.uniform(spec.a, spec.b - spec.a)
     if spec.dist == "normal":
-        return stats.norm(spec.a, spec.b).cdf(x)
-    return stats.lognorm(s=spec.b, scale=spec.a).cdf(x)
+        return stats.norm(spec.a, spec.b)
+    return stats.lognorm(s=spec.b, scale=spec.a)
+
+
+def cdf(spec, x: float) -> float:
+    return scipy_distribution(spec).cdf(x)
 
 
 def test_grid_is_every_combination_first_key_slowest() -> None:
@@ -60,7 +65,7 @@ def test_monte_carlo_follows_the_distributions() -> None:
     points = monte_carlo(specs, 4000, seed=2)
     for spec in specs:
         xs = np.array([p[spec.key] for p in points])
-        assert stats.kstest(xs, lambda x, s=spec: np.array([cdf(s, v) for v in np.atleast_1d(x)])).pvalue > 1e-3
+        assert stats.kstest(xs, scipy_distribution(spec).cdf).pvalue > 1e-3
     # independent draws: the keys are uncorrelated
     t = [p["shell.thickness"] for p in points]
     r = [p["shell.radius"] for p in points]
@@ -113,3 +118,16 @@ def test_rank_correlation_is_spearmans() -> None:
         assert rank_correlation(list(a), list(b)) == pytest.approx(stats.spearmanr(a, b).statistic, abs=1e-12)
     assert rank_correlation(list(x), list(np.exp(x))) == pytest.approx(1.0, abs=1e-15)  # monotone: exactly 1
     assert rank_correlation([1.0, 1.0, 1.0], [1.0, 2.0, 3.0]) is None
+
+
+def test_grid_keeps_integers_and_refuses_a_grid_too_large_to_record() -> None:
+    points = sample([parse_spec("mesh.refine=0:2:3")], "grid")
+    assert points == [{"mesh.refine": 0}, {"mesh.refine": 1}, {"mesh.refine": 2}]
+    assert all(type(p["mesh.refine"]) is int for p in points)  # an integer key's values stay integers
+    specs = [parse_spec(f"shell.{k}=0:1:10000") for k in ("thickness", "radius", "length")]
+    t0 = time.perf_counter()
+    with pytest.raises(InputError) as err:
+        sample(specs, "grid", max_memory="1G")  # 1e12 points: refused before the product is built
+    assert err.value.field == "-p" and time.perf_counter() - t0 < 0.5
+    with pytest.raises(InputError, match="--samples"):
+        sample([parse_spec("shell.thickness=uniform(0.2,0.3)")], "mc", 10**12, max_memory="1G")

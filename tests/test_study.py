@@ -212,3 +212,16 @@ def test_external_cluster_with_a_killed_worker_equals_serial(tmp_path: Path, das
     assert other.returncode == 0 and f"the Dask cluster at {address}" in other.stdout, other.stderr
     rows = json.loads((tmp_path / "env" / "study.json").read_text())["points"]
     assert [p["shell.thickness"] for p in rows] == [0.2, 0.3]
+
+
+def test_parquet_keeps_types_and_writes_a_mixed_column_as_text(tmp_path: Path) -> None:
+    import pyarrow.parquet as pq
+
+    from shellcontact.studies import write_parquet
+
+    rows = [{"solver.method": "dual", "mesh.refine": 1, "energy": 1.5}, {"solver.method": 2, "mesh.refine": 2}]
+    write_parquet(tmp_path / "t.parquet", rows, {"energy": "J"})
+    table = pq.read_table(tmp_path / "t.parquet")
+    assert table.to_pylist() == [{"solver.method": "dual", "mesh.refine": 1, "energy": 1.5},
+                                 {"solver.method": "2", "mesh.refine": 2, "energy": None}]
+    assert table.schema.field("energy").metadata == {b"unit": b"J"}

@@ -287,7 +287,7 @@ def cmd_study(args: argparse.Namespace, con: Console) -> int:
     elif args.param:
         specs = [parse_spec(item, args.max_memory) for item in args.param]
         how = args.sample or ("grid" if all(s.dist is None for s in specs) else "lhs")
-        points = sample(specs, how, args.samples, args.seed)
+        points = sample(specs, how, args.samples, args.seed, args.max_memory)
     else:
         raise InputError("-p", "give the keys to vary (-p KEY=SPEC, repeatable) or a table of points (--points)")
     probe = tuple(c.strip() for c in args.probe.split(",") if c.strip())

@@ -25,6 +25,7 @@ from typing import Any
 from .errors import InputError
 
 SCHEDULER_ENV = "SHELLCONTACT_SCHEDULER"
+ONE_THREAD = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS": 1}
 log = logging.getLogger("shellcontact")
 
 Done = Callable[[int, Any], None]
@@ -62,11 +63,16 @@ class Dask:
 
         self.cluster = None
         if address is None:
+            import dask
+
             n = (os.cpu_count() or 1) if workers is None else workers
-            # silence_logs: a failed task is raised here (its own error), not also logged by its worker
-            self.cluster = distributed.LocalCluster(
-                n_workers=n, threads_per_worker=1, processes=True, silence_logs=logging.CRITICAL,
-                dashboard_address=":0" if _has_dashboard() else None)
+            # one BLAS thread per worker process, set before it starts (whatever the user's Dask config says)
+            environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **ONE_THREAD}
+            with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+                # silence_logs: a failed task is raised here (its own error), not also logged by its worker
+                self.cluster = distributed.LocalCluster(
+                    n_workers=n, threads_per_worker=1, processes=True, silence_logs=logging.CRITICAL,
+                    dashboard_address=":0" if _has_dashboard() else None)
             self.client = distributed.Client(self.cluster)
             self.description = f"an embedded Dask cluster of {n} worker process{'es' * (n != 1)}"
         else:

@@ -67,7 +67,7 @@ class Spec:
 def parse_spec(item: str, max_memory: float | str | None = None) -> Spec:
     """``KEY=SPEC`` (a ``-p`` option): a value list or a distribution; the key's path is checked here, its
     values by the schema when the points' cases are built."""
-    from .studies import parse_values
+    from .studies import _value, parse_values
 
     key, sep, text = item.partition("=")
     key, text = key.strip(), text.strip()
@@ -78,7 +78,7 @@ def parse_spec(item: str, max_memory: float | str | None = None) -> Spec:
     m = _CALL.match(text)
     if m is None:
         try:
-            return Spec(key, tuple(parse_values(text, max_memory)))
+            return Spec(key, tuple(_value(v) for v in parse_values(text, max_memory)))
         except InputError as exc:
             raise InputError(f"-p {key}", exc.message) from None
     name, args = m["name"], [s.strip() for s in m["args"].split(",")]
@@ -157,14 +157,20 @@ def monte_carlo(specs: Sequence[Spec], n: int, seed: int = 0) -> list[Point]:
     return [{s.key: s.quantile(_open_unit(rng)) for s in specs} for _ in range(n)]
 
 
-def sample(specs: Sequence[Spec], how: str, n: int | None = None, seed: int = 0) -> list[Point]:
-    """The points of ``--sample how`` (grid, lhs, mc)."""
+def sample(specs: Sequence[Spec], how: str, n: int | None = None, seed: int = 0,
+           max_memory: float | str | None = None) -> list[Point]:
+    """The points of ``--sample how`` (grid, lhs, mc); a number of points whose records cannot fit in
+    ``max_memory`` (default: the memory available) is refused before any point is built."""
+    from .sizing import check_steps
+
     if how == "grid":
+        check_steps(math.prod(max(1, len(s.values)) for s in specs), max_memory, where="-p")
         return grid(specs)
     if how not in SAMPLINGS:
         raise InputError("--sample", f"one of {', '.join(SAMPLINGS)}, got {how!r}")
     if n is None:
         raise InputError("--samples", f"--sample {how} needs the number of points (--samples N)")
+    check_steps(n, max_memory, where="--samples")
     return (latin_hypercube if how == "lhs" else monte_carlo)(specs, n, seed)
 
 

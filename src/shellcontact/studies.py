@@ -250,10 +250,15 @@ def _families(raws: Sequence[dict], todo: Sequence[int]) -> list[list[int]]:
     return list(families.values())
 
 
+#: the most points in one task: past ~16 a shared factorisation saves little more per point (1/16 of one)
+#: while a task lost with its worker, or not yet recorded at an interruption, costs more
+TASK_POINTS = 16
+
+
 def _tasks(raws: Sequence[dict], todo: Sequence[int], workers: int) -> list[list[int]]:
-    """Families cut into ordered runs of at most ⌈len(todo)/workers⌉ points: one task each, so that every
-    worker gets work and a family's points stay together."""
-    size = max(1, math.ceil(len(todo) / max(1, workers)))
+    """Families cut into ordered runs of at most ⌈len(todo)/workers⌉ (and TASK_POINTS) points: one task each,
+    so that every worker gets work and a family's points stay together."""
+    size = max(1, min(TASK_POINTS, math.ceil(len(todo) / max(1, workers))))
     return [fam[k:k + size] for fam in _families(raws, todo) for k in range(0, len(fam), size)]
 
 
@@ -431,7 +436,14 @@ def write_parquet(path: str | Path, rows: Sequence[dict[str, Any]], units: dict[
     cols: list[str] = []
     for r in rows:
         cols += [c for c in r if c not in cols]
-    table = pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows])
+    arrays = []
+    for c in cols:
+        values = [r.get(c) for r in rows]
+        try:
+            arrays.append(pa.array(values))
+        except (pa.ArrowInvalid, pa.ArrowTypeError):  # e.g. numbers and words in one column of a points table
+            arrays.append(pa.array([None if v is None else str(v) for v in values]))
+    table = pa.Table.from_arrays(arrays, names=cols)
     fields = [f.with_metadata({"unit": units[f.name]}) if units.get(f.name) else f for f in table.schema]
     table = table.cast(pa.schema(fields))
     from .files import atomic_write_with
