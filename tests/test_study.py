@@ -50,7 +50,10 @@ def test_families_share_a_task_in_point_order() -> None:
 def test_embedded_cluster_equals_serial_bit_for_bit(tmp_path: Path) -> None:
     case, points = panel(), panel_points()
     serial = study(case, points, tmp_path / "serial", workers=0, keep_fields="npz", figures=False)
-    cluster = study(case, points, tmp_path / "cluster", workers=2, keep_fields="npz", figures=False)
+    said: list[str] = []
+    cluster = study(case, points, tmp_path / "cluster", workers=2, keep_fields="npz", figures=False,
+                    announce=said.append)
+    assert "an embedded Dask cluster of 2 worker processes; dashboard http://127.0.0.1:" in said[0]
     assert cluster.rows == serial.rows  # every float equal, not close
     for name in ("study.csv", "study.parquet"):
         assert (tmp_path / "cluster" / name).read_bytes() == (tmp_path / "serial" / name).read_bytes(), name

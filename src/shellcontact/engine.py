@@ -72,7 +72,7 @@ class Dask:
                 # silence_logs: a failed task is raised here (its own error), not also logged by its worker
                 self.cluster = distributed.LocalCluster(
                     n_workers=n, threads_per_worker=1, processes=True, silence_logs=logging.CRITICAL,
-                    dashboard_address=":0" if _has_dashboard() else None)
+                    dashboard_address=":0")  # a free port: several studies at once
             self.client = distributed.Client(self.cluster)
             self.description = f"an embedded Dask cluster of {n} worker process{'es' * (n != 1)}"
         else:
@@ -81,10 +81,19 @@ class Dask:
             except (OSError, TimeoutError) as exc:
                 raise InputError("--scheduler", f"cannot reach the Dask scheduler at {address}: {exc}") from None
             self.description = f"the Dask cluster at {address}"
-        self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
+        info = self.client.scheduler_info()
+        self.workers = max(1, len(info.get("workers", {})))
         if address is not None:
             self.description += f" ({self.workers} worker{'s' * (self.workers != 1)} now)"
-        self.dashboard = self.client.dashboard_link if address is not None or _has_dashboard() else None
+        self.dashboard = None
+        if "dashboard" in info.get("services", {}):
+            self.dashboard = self.client.dashboard_link
+            if address is None and not _has_dashboard():  # the scheduler serves its plain pages only
+                from urllib.parse import urlsplit
+
+                link = urlsplit(self.dashboard)
+                self.dashboard = (f"{link.scheme}://{link.netloc}/info/main/workers.html (the full dashboard "
+                                  "needs bokeh: pip install bokeh)")
 
     def run(self, fn: Callable[..., Any], tasks: Sequence[tuple], done: Done) -> None:
         from distributed import as_completed

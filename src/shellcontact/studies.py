@@ -328,8 +328,7 @@ def _run_points(
         workers = min(os.cpu_count() or 1, len(todo))
     with open_engine(workers, address) as engine:
         if announce and workers != 0:
-            dashboard = f"; dashboard {engine.dashboard}" if engine.dashboard else \
-                "; no dashboard (it needs bokeh: pip install bokeh)"
+            dashboard = f"; dashboard {engine.dashboard}" if engine.dashboard else ""
             announce(f"solving {len(todo)} points on {engine.description}{dashboard}")
         if workers == 0 and address is None:
             tasks = [[i] for i in todo]
