@@ -248,6 +248,8 @@ def cmd_verify(args: argparse.Namespace, con: Console) -> int:
 
 def _workers(args: argparse.Namespace, default: int | None) -> int | None:
     """--serial, else --workers N (0: in this process), else ``default``."""
+    if args.scheduler is not None and (args.serial or args.workers is not None):
+        raise InputError("--scheduler", "the points run either on that cluster or here: drop --serial/--workers")
     if args.serial:
         return 0
     if args.workers is not None:

@@ -1,5 +1,6 @@
 """The points of a parameter study: which values each varied case-file key takes.
 
+* ``parse_values('0:5e-3:11')`` — a value list (``--values``, and a ``-p`` list).
 * ``parse_spec('punch.0.indentation=0:5e-3:11')`` — a ``Spec``: a list of values (``start:stop:count``, both
   ends included, or ``a,b,c``) or a distribution: ``uniform(lo,hi)``, ``normal(mean,sd)``,
   ``lognormal(median,sigma)`` (ln X normal with mean ln(median) and standard deviation sigma).
@@ -36,6 +37,51 @@ _CALL = re.compile(r"^\s*(?P<name>[a-z]+)\s*\((?P<args>[^()]*)\)\s*$")
 Point = dict[str, Any]
 
 
+# -- value lists ----------------------------------------------------------------------------------------------
+def parse_values(spec: str, max_memory: float | str | None = None) -> list[float]:
+    """``'0:5e-3:11'`` (start:stop:count, both ends included) or ``'1e-3,2e-3,4e-3'``. A count
+    whose steps cannot be recorded in ``max_memory`` (default: the memory available) is refused
+    before any list is built (``sizing.check_steps``)."""
+    from .sizing import check_steps
+
+    where = "--values"
+    text = spec.strip()
+    usage = f"expected start:stop:count (e.g. 0:5e-3:11) or a comma list (e.g. 1e-3,2e-3), got {spec!r}"
+    if ":" in text:
+        parts = text.split(":")
+        try:
+            if len(parts) != 3:
+                raise ValueError
+            start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
+        except ValueError:
+            raise InputError(where, usage) from None
+        if count < 1:
+            raise InputError(where, f"count must be >= 1, got {count}")
+        check_steps(count, max_memory)  # before the list is built
+        if not (math.isfinite(start) and math.isfinite(stop)):
+            raise InputError(where, f"values must be finite, got {spec!r}")
+        if count == 1:
+            return [start]
+        # to 12 significant digits: 0.006, not the 0.006000000000000001 of the arithmetic
+        return [float(f"{start + (stop - start) * i / (count - 1):.12g}") for i in range(count)]
+    check_steps(text.count(",") + 1, max_memory)
+    try:
+        vals = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise InputError(where, usage) from None
+    if not vals:
+        raise InputError(where, "no values given")
+    if not all(math.isfinite(v) for v in vals):
+        raise InputError(where, f"values must be finite, got {spec!r}")
+    return vals
+
+
+def whole_value(v: float) -> int | float:
+    """Integral values of integer keys (mesh.refine=2) stay integers."""
+    return int(v) if float(v).is_integer() and abs(v) < 2**53 else float(v)
+
+
+# -- specs -------------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Spec:
     """One varied key: a value list, or a distribution (``dist`` with its two parameters)."""
@@ -67,8 +113,6 @@ class Spec:
 def parse_spec(item: str, max_memory: float | str | None = None) -> Spec:
     """``KEY=SPEC`` (a ``-p`` option): a value list or a distribution; the key's path is checked here, its
     values by the schema when the points' cases are built."""
-    from .studies import _value, parse_values
-
     key, sep, text = item.partition("=")
     key, text = key.strip(), text.strip()
     if not sep or not key or not text:
@@ -78,7 +122,7 @@ def parse_spec(item: str, max_memory: float | str | None = None) -> Spec:
     m = _CALL.match(text)
     if m is None:
         try:
-            return Spec(key, tuple(_value(v) for v in parse_values(text, max_memory)))
+            return Spec(key, tuple(whole_value(v) for v in parse_values(text, max_memory)))
         except InputError as exc:
             raise InputError(f"-p {key}", exc.message) from None
     name, args = m["name"], [s.strip() for s in m["args"].split(",")]

@@ -31,11 +31,15 @@ from .case import Case, case_from_dict, expect_case, key_kind
 from .errors import InputError
 from .files import atomic_write_bytes, atomic_write_text, check_output_dir, write_json
 from .overrides import apply_overrides, split_path
+from .sampling import (
+    Point,
+    parse_values,  # noqa: F401 — public here too (the sweep's --values; arguments.py names it)
+    whole_value,
+)
 
 log = logging.getLogger("shellcontact")
 
 Progress = Callable[[int, int, str], None]  # (done, total, message)
-Point = dict[str, Any]  # {case-file key: value}
 
 CONTACT_COLUMNS = (
     ("force", "force_magnitude"),
@@ -45,50 +49,6 @@ CONTACT_COLUMNS = (
     ("active_vertices", "active_vertices"),
     ("punch_travel", "punch_travel"),
 )
-
-
-# -- values ----------------------------------------------------------------------------------------------
-def parse_values(spec: str, max_memory: float | str | None = None) -> list[float]:
-    """``'0:5e-3:11'`` (start:stop:count, both ends included) or ``'1e-3,2e-3,4e-3'``. A count
-    whose steps cannot be recorded in ``max_memory`` (default: the memory available) is refused
-    before any list is built (``sizing.check_steps``)."""
-    from .sizing import check_steps
-
-    where = "--values"
-    text = spec.strip()
-    usage = f"expected start:stop:count (e.g. 0:5e-3:11) or a comma list (e.g. 1e-3,2e-3), got {spec!r}"
-    if ":" in text:
-        parts = text.split(":")
-        try:
-            if len(parts) != 3:
-                raise ValueError
-            start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
-        except ValueError:
-            raise InputError(where, usage) from None
-        if count < 1:
-            raise InputError(where, f"count must be >= 1, got {count}")
-        check_steps(count, max_memory)  # before the list is built
-        if not (math.isfinite(start) and math.isfinite(stop)):
-            raise InputError(where, f"values must be finite, got {spec!r}")
-        if count == 1:
-            return [start]
-        # to 12 significant digits: 0.006, not the 0.006000000000000001 of the arithmetic
-        return [float(f"{start + (stop - start) * i / (count - 1):.12g}") for i in range(count)]
-    check_steps(text.count(",") + 1, max_memory)
-    try:
-        vals = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise InputError(where, usage) from None
-    if not vals:
-        raise InputError(where, "no values given")
-    if not all(math.isfinite(v) for v in vals):
-        raise InputError(where, f"values must be finite, got {spec!r}")
-    return vals
-
-
-def _value(v: float) -> int | float:
-    """Integral values of integer keys (mesh.refine=2) stay integers."""
-    return int(v) if float(v).is_integer() and abs(v) < 2**53 else float(v)
 
 
 # -- rows -----------------------------------------------------------------------------------------------
@@ -417,7 +377,7 @@ def _keep_files(keep_fields: str | None) -> tuple[str, ...]:
     return KEEP_FILES[keep_fields]
 
 
-def _check_workers(workers: int | None, what: str) -> None:
+def _check_workers(workers: int | None) -> None:
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
         raise InputError("--workers", f"must be an integer >= 0 (0: in this process), got {workers!r}")
 
@@ -522,7 +482,7 @@ def sweep(
     values = expect_numbers(values, "sweep", "values")
     expect_path(output_dir, "sweep", "output_dir", optional=True)
     jobs = expect_integer(jobs, "sweep", "jobs", 1)
-    _check_workers(workers, "sweep")
+    _check_workers(workers)
     expect_callable(progress, "sweep", "progress")
     keep = _keep_files(keep_fields)
     split_path(param)
@@ -531,7 +491,7 @@ def sweep(
     check_steps(len(values), max_memory)
     if workers is None:
         workers = 0 if jobs == 1 else jobs
-    vals = [_value(v) for v in values]
+    vals = [whole_value(v) for v in values]
     source = str(case.source) if case.source is not None else None
     points = _point_cases(case, [{param: v} for v in vals], source, lambda i: f"sweep step {i}: {param} = {vals[i]!r}")
     fps = [_fingerprint(raw, source) for raw, _ in points]
@@ -643,7 +603,7 @@ def study(
 
     expect_case(case, "study")
     expect_path(output_dir, "study", "output_dir", optional=True)
-    _check_workers(workers, "study")
+    _check_workers(workers)
     expect_callable(progress, "study", "progress")
     keep = _keep_files(keep_fields)
     components = tuple(probe_components)
