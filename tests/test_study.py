@@ -228,3 +228,16 @@ def test_parquet_keeps_types_and_writes_a_mixed_column_as_text(tmp_path: Path) -
     assert table.to_pylist() == [{"solver.method": "dual", "mesh.refine": 1, "energy": 1.5},
                                  {"solver.method": "2", "mesh.refine": 2, "energy": None}]
     assert table.schema.field("energy").metadata == {b"unit": b"J"}
+
+
+def test_a_task_that_kills_every_worker_is_named() -> None:
+    """A point whose worker dies each time it runs (here: exits; in practice out of memory) stops the study
+    with an input error naming it, after Dask's allowed failures (0 here, to be quick)."""
+    import dask
+
+    from shellcontact.engine import open_engine
+
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), pytest.raises(InputError) as err:
+        with open_engine(1, None) as engine:
+            engine.run(lambda: os._exit(1), [()], lambda k, v: None, lambda k: "the point 7")
+    assert err.value.field == "--workers" and "the point 7 ended every worker" in err.value.message

@@ -1,7 +1,8 @@
 """Where a study's tasks run: in this process one after another, or as Dask tasks.
 
-``open_engine(workers, scheduler)`` gives an engine whose ``run(fn, tasks, done)`` calls ``fn(*task)`` for
-every task and ``done(k, value)`` in this process as each finishes (in any order):
+``open_engine(workers, scheduler)`` gives an engine whose ``run(fn, tasks, done, describe)`` calls ``fn(*task)``
+for every task and ``done(k, value)`` in this process as each finishes (in any order; ``describe(k)`` names
+task k in messages):
 
 * ``workers == 0`` (and no scheduler): ``Serial``, in this process, in order;
 * otherwise ``Dask``: on an existing cluster (``scheduler`` ``tcp://host:port``, or the environment variable
@@ -47,7 +48,8 @@ class Serial:
     description = "in this process"
     dashboard: str | None = None
 
-    def run(self, fn: Callable[..., Any], tasks: Sequence[tuple], done: Done) -> None:
+    def run(self, fn: Callable[..., Any], tasks: Sequence[tuple], done: Done,
+            describe: Callable[[int], str] = lambda k: f"task {k}") -> None:
         for k, args in enumerate(tasks):
             done(k, fn(*args))
 
@@ -95,8 +97,9 @@ class Dask:
                 self.dashboard = (f"{link.scheme}://{link.netloc}/info/main/workers.html (the full dashboard "
                                   "needs bokeh: pip install bokeh)")
 
-    def run(self, fn: Callable[..., Any], tasks: Sequence[tuple], done: Done) -> None:
-        from distributed import as_completed
+    def run(self, fn: Callable[..., Any], tasks: Sequence[tuple], done: Done,
+            describe: Callable[[int], str] = lambda k: f"task {k}") -> None:
+        from distributed import KilledWorker, as_completed
 
         token = secrets.token_hex(4)
         futures = [self.client.submit(fn, *args, key=f"shellcontact-{token}-{k}", pure=False)
@@ -104,7 +107,13 @@ class Dask:
         index = {f.key: k for k, f in enumerate(futures)}
         try:
             for fut in as_completed(futures):
-                done(index[fut.key], fut.result())
+                try:
+                    value = fut.result()
+                except KilledWorker as exc:  # after distributed.scheduler.allowed-failures workers died with it
+                    raise InputError("--workers", f"{describe(index[fut.key])} ended every worker that ran it ({exc}); "
+                                     "most often a worker out of memory: give each more (fewer per machine) or "
+                                     "use a coarser mesh") from None
+                done(index[fut.key], value)
         except BaseException:
             self.client.cancel(futures, force=True)
             raise

@@ -301,7 +301,13 @@ def _run_points(
             for i, (summary, files) in zip(tasks[k], value):
                 finished(i, summary, files)
 
-        engine.run(_solve_points, args, task_done)
+        def describe(k: int) -> str:  # a task's points (a family's are not always consecutive)
+            t = tasks[k]
+            if len(t) == 1:
+                return f"the point {t[0]} ({label(t[0])})"
+            return f"the points {', '.join(map(str, t[:6]))}{', …' if len(t) > 6 else ''} ({label(t[0])}, …)"
+
+        engine.run(_solve_points, args, task_done, describe)
     return rows, sums, reused  # type: ignore[return-value]
 
 
