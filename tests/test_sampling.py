@@ -131,3 +131,11 @@ def test_grid_keeps_integers_and_refuses_a_grid_too_large_to_record() -> None:
     assert err.value.field == "-p" and time.perf_counter() - t0 < 0.5
     with pytest.raises(InputError, match="--samples"):
         sample([parse_spec("shell.thickness=uniform(0.2,0.3)")], "mc", 10**12, max_memory="1G")
+
+
+def test_a_value_list_of_words() -> None:
+    spec = parse_spec("solver.method=active-set,dual")
+    assert grid([spec, parse_spec("mesh.refine=0,1")])[1:3] == [{"solver.method": "active-set", "mesh.refine": 1},
+                                                              {"solver.method": "dual", "mesh.refine": 0}]
+    with pytest.raises(InputError, match="start:stop:count"):
+        parse_spec("shell.thickness=0.2,dual")  # numbers and words: a typo, not a list of words

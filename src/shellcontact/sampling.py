@@ -2,8 +2,9 @@
 
 * ``parse_values('0:5e-3:11')`` — a value list (``--values``, and a ``-p`` list).
 * ``parse_spec('punch.0.indentation=0:5e-3:11')`` — a ``Spec``: a list of values (``start:stop:count``, both
-  ends included, or ``a,b,c``) or a distribution: ``uniform(lo,hi)``, ``normal(mean,sd)``,
-  ``lognormal(median,sigma)`` (ln X normal with mean ln(median) and standard deviation sigma).
+  ends included, or ``a,b,c`` of numbers or of words such as ``active-set,dual``) or a distribution:
+  ``uniform(lo,hi)``, ``normal(mean,sd)``, ``lognormal(median,sigma)`` (ln X normal with mean ln(median) and
+  standard deviation sigma).
 * ``grid(specs)`` — every combination of the value lists (the first key varies slowest).
 * ``latin_hypercube(specs, n, seed)`` / ``monte_carlo(specs, n, seed)`` — ``n`` random points from the
   distributions: in a Latin hypercube each key's probability range is cut into ``n`` equal strata holding one
@@ -33,6 +34,7 @@ from .overrides import parse_value, split_path
 DISTRIBUTIONS = ("uniform", "normal", "lognormal")
 SAMPLINGS = ("grid", "lhs", "mc")
 _CALL = re.compile(r"^\s*(?P<name>[a-z]+)\s*\((?P<args>[^()]*)\)\s*$")
+_WORD = re.compile(r"^[A-Za-z_][A-Za-z0-9_+\-]*$")  # a value list of words: solver.method=active-set,dual
 
 Point = dict[str, Any]
 
@@ -124,7 +126,10 @@ def parse_spec(item: str, max_memory: float | str | None = None) -> Spec:
         try:
             return Spec(key, tuple(whole_value(v) for v in parse_values(text, max_memory)))
         except InputError as exc:
-            raise InputError(f"-p {key}", exc.message) from None
+            words = [w.strip() for w in text.split(",")]
+            if ":" in text or not all(words) or not all(_WORD.match(w) for w in words):
+                raise InputError(f"-p {key}", exc.message) from None
+            return Spec(key, tuple(words))  # e.g. solver.method=active-set,dual
     name, args = m["name"], [s.strip() for s in m["args"].split(",")]
     where = f"-p {key}"
     if name not in DISTRIBUTIONS:
