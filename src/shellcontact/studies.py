@@ -128,17 +128,18 @@ def _fingerprint(raw: dict[str, Any], source: Any) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _point_cases(case: Case, points: Sequence[Point], source: str | None,
-                 label: Callable[[int], str]) -> list[tuple[dict, Case]]:
+def _point_cases(case: Case, points: Sequence[Point], source: str | None, label: Callable[[int], str],
+                 option: str) -> list[tuple[dict, Case]]:
     """Every point's case, validated through the schema before the first solve; a bad key or value names its
-    point."""
+    point (a key path that does not fit the case, the ``option`` that gave it)."""
     out = []
     for i, point in enumerate(points):
         try:
             raw = apply_overrides(case.raw, point)
             out.append((raw, case_from_dict(raw, source=source)))
         except InputError as exc:
-            raise InputError(exc.field, f"{exc.message} ({label(i)})") from None
+            where = option + exc.field.removeprefix("--set") if exc.field.startswith("--set ") else exc.field
+            raise InputError(where, f"{exc.message} ({label(i)})") from None
     return out
 
 
@@ -499,7 +500,8 @@ def sweep(
         workers = 0 if jobs == 1 else jobs
     vals = [whole_value(v) for v in values]
     source = str(case.source) if case.source is not None else None
-    points = _point_cases(case, [{param: v} for v in vals], source, lambda i: f"sweep step {i}: {param} = {vals[i]!r}")
+    points = _point_cases(case, [{param: v} for v in vals], source, lambda i: f"sweep step {i}: {param} = {vals[i]!r}",
+                          "--param")
     fps = [_fingerprint(raw, source) for raw, _ in points]
 
     def solve(work: Path | None) -> SweepResult:
@@ -628,7 +630,7 @@ def study(
     def label(i: int) -> str:
         return f"point {i}: " + ", ".join(f"{k} = {v!r}" for k, v in points[i].items())
 
-    cases = _point_cases(case, points, source, label)
+    cases = _point_cases(case, points, source, label, "--points" if sampling == "points" else "-p")
     fps = [_fingerprint({"case": raw, "probe": components}, source) for raw, _ in cases]
 
     def solve(work: Path | None) -> StudyResult:
