@@ -241,3 +241,23 @@ def test_a_task_that_kills_every_worker_is_named() -> None:
         with open_engine(1, None) as engine:
             engine.run(lambda: os._exit(1), [()], lambda k, v: None, lambda k: "the point 7")
     assert err.value.field == "--workers" and "the point 7 ended every worker" in err.value.message
+
+
+def test_without_pyarrow_the_parquet_file_is_skipped_with_a_message(tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    import logging
+
+    from shellcontact.studies import write_parquet
+
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow now raises ImportError
+    messages: list[str] = []
+    handler = logging.Handler()
+    handler.emit = lambda record: messages.append(record.getMessage())
+    logger = logging.getLogger("shellcontact")
+    logger.addHandler(handler)
+    try:
+        assert write_parquet(tmp_path / "study.parquet", [{"energy": 1.0}], {}) is None
+    finally:
+        logger.removeHandler(handler)
+    assert not (tmp_path / "study.parquet").exists()
+    assert any("study.parquet not written" in m and "shellcontact[parquet]" in m for m in messages)

@@ -29,7 +29,7 @@ from typing import Any
 from .arguments import expect_callable, expect_integer, expect_numbers, expect_path
 from .case import Case, case_from_dict, expect_case, key_kind
 from .errors import InputError
-from .files import atomic_write_bytes, atomic_write_text, check_output_dir, write_json
+from .files import atomic_write_bytes, atomic_write_text, atomic_write_with, check_output_dir, write_json
 from .overrides import apply_overrides, split_path
 from .sampling import (
     Point,
@@ -412,8 +412,6 @@ def write_parquet(path: str | Path, rows: Sequence[dict[str, Any]], units: dict[
     table = pa.Table.from_arrays(arrays, names=cols)
     fields = [f.with_metadata({"unit": units[f.name]}) if units.get(f.name) else f for f in table.schema]
     table = table.cast(pa.schema(fields))
-    from .files import atomic_write_with
-
     atomic_write_with(path, lambda tmp: pq.write_table(table, tmp))
     return Path(path)
 
