@@ -62,7 +62,7 @@ def test_public_names_resolve_to_their_definitions() -> None:
 
     where = {
         "Case": case, "case_from_dict": case, "load_case": case, "Result": analysis, "solve": analysis,
-        "Shell": geometry, "convergence": studies, "sweep": studies,
+        "Shell": geometry, "convergence": studies, "study": studies, "sweep": studies,
         "InputError": errors, "ShellContactError": errors, "SolverError": errors,
     }
     assert set(shellcontact.__all__) == {*where, "__version__"}
