@@ -1,13 +1,14 @@
 """Where a study's tasks run: in this process one after another, or as Dask tasks.
 
-``open_engine(workers, scheduler)`` gives an engine whose ``run(fn, tasks, done, describe)`` calls ``fn(*task)``
+``open_engine(workers, address)`` gives an engine whose ``run(fn, tasks, done, describe)`` calls ``fn(*task)``
 for every task and ``done(k, value)`` in this process as each finishes (in any order; ``describe(k)`` names
 task k in messages):
 
-* ``workers == 0`` (and no scheduler): ``Serial``, in this process, in order;
-* otherwise ``Dask``: on an existing cluster (``scheduler`` ``tcp://host:port``, or the environment variable
-  ``SHELLCONTACT_SCHEDULER``), else on an embedded ``LocalCluster`` of ``workers`` processes (None: one per
-  core) with one thread each and one BLAS thread (Dask's ``distributed.nanny.pre-spawn-environ``).
+* ``workers == 0`` (and no address): ``Serial``, in this process, in order;
+* otherwise ``Dask``: on an existing cluster at ``address`` (``tcp://host:port``: ``scheduler_address`` reads
+  ``--scheduler`` or the environment variable ``SHELLCONTACT_SCHEDULER``), else on an embedded
+  ``LocalCluster`` of ``workers`` processes (None: one per core) with one thread each and one BLAS thread
+  (Dask's ``distributed.nanny.pre-spawn-environ``).
 
 A task lost with a killed worker is run again on another (Dask's ``distributed.scheduler.allowed-failures``).
 On an error or an interruption the tasks are cancelled and an embedded cluster's workers are killed at once
@@ -60,10 +61,17 @@ class Serial:
 class Dask:
     """A Dask client on an existing scheduler or on an embedded ``LocalCluster``."""
 
-    def __init__(self, workers: int | None, address: str | None) -> None:
+    def __init__(self, workers: int | None, address: str | None, option: str = "--scheduler") -> None:
+        self.cluster = self.client = None
+        try:
+            self._start(workers, address, option)
+        except BaseException:  # e.g. Ctrl-C while the workers start: none is left behind
+            self.close(abort=True)
+            raise
+
+    def _start(self, workers: int | None, address: str | None, option: str) -> None:
         import distributed
 
-        self.cluster = None
         if address is None:
             import dask
 
@@ -81,7 +89,7 @@ class Dask:
             try:
                 self.client = distributed.Client(address, timeout="20s")
             except (OSError, TimeoutError) as exc:
-                raise InputError("--scheduler", f"cannot reach the Dask scheduler at {address}: {exc}") from None
+                raise InputError(option, f"cannot reach the Dask scheduler at {address}: {exc}") from None
             self.description = f"the Dask cluster at {address}"
         info = self.client.scheduler_info()
         self.workers = max(1, len(info.get("workers", {})))
@@ -144,18 +152,20 @@ def _has_dashboard() -> bool:
 
 
 class open_engine:  # noqa: N801 — used as a context manager, like open()
-    """``with open_engine(workers, scheduler) as engine: engine.run(...)``; an exception aborts the engine."""
+    """``with open_engine(workers, address) as engine: engine.run(...)``; an exception aborts the engine.
+    ``option``: what gave the address (named when the scheduler cannot be reached)."""
 
-    def __init__(self, workers: int | None, scheduler: str | None) -> None:
+    def __init__(self, workers: int | None, address: str | None, option: str = "--scheduler") -> None:
         self.workers = workers
-        self.address = scheduler_address(scheduler)
+        self.address = address
+        self.option = option
         self.engine: Serial | Dask | None = None
 
     def __enter__(self) -> Serial | Dask:
         if self.workers == 0 and self.address is None:
             self.engine = Serial()
         else:
-            self.engine = Dask(self.workers, self.address)
+            self.engine = Dask(self.workers, self.address, self.option)
         return self.engine
 
     def __exit__(self, kind, exc, tb) -> None:

@@ -241,7 +241,7 @@ def _run_points(
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], int]:
     """Solve the points without a record in ``work``: serially (``workers == 0``) or as Dask tasks; each
     finished point's kept files and record are written as it arrives (the record last)."""
-    from .engine import open_engine, scheduler_address
+    from .engine import SCHEDULER_ENV, open_engine, scheduler_address
 
     n = len(points)
     rows: list[dict[str, Any] | None] = [None] * n
@@ -287,7 +287,7 @@ def _run_points(
         workers = 0  # one point: no cluster to start
     elif address is None and workers is None:
         workers = min(os.cpu_count() or 1, len(todo))
-    with open_engine(workers, address) as engine:
+    with open_engine(workers, address, "--scheduler" if scheduler is not None else SCHEDULER_ENV) as engine:
         if announce and workers != 0:
             dashboard = f"; dashboard {engine.dashboard}" if engine.dashboard else ""
             announce(f"solving {len(todo)} points on {engine.description}{dashboard}")
