@@ -15,7 +15,7 @@ import pytest
 
 import shellcontact
 
-HEAVY = ("numpy", "scipy", "skfem", "matplotlib", "meshio", "pypardiso", "sksparse")
+HEAVY = ("numpy", "scipy", "skfem", "matplotlib", "meshio", "pypardiso", "sksparse", "dask", "distributed", "pyarrow")
 
 # prints, as JSON, the heavy top-level packages that the statements before it imported
 REPORT = f"import json, sys; print(json.dumps(sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r}))))"
@@ -35,7 +35,7 @@ def test_parser_help_and_version_load_no_heavy_library() -> None:
     code = """
 import contextlib, io
 from shellcontact.cli import main
-commands = ("run", "demo", "sweep", "convergence", "verify", "info")
+commands = ("run", "demo", "study", "sweep", "convergence", "verify", "info")
 for argv in [["--help"], ["--version"], *([c, "--help"] for c in commands)]:
     with contextlib.redirect_stdout(io.StringIO()) as out:
         try:
@@ -62,7 +62,7 @@ def test_public_names_resolve_to_their_definitions() -> None:
 
     where = {
         "Case": case, "case_from_dict": case, "load_case": case, "Result": analysis, "solve": analysis,
-        "Shell": geometry, "convergence": studies, "sweep": studies,
+        "Shell": geometry, "convergence": studies, "study": studies, "sweep": studies,
         "InputError": errors, "ShellContactError": errors, "SolverError": errors,
     }
     assert set(shellcontact.__all__) == {*where, "__version__"}

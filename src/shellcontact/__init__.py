@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from .analysis import Result, solve
     from .case import Case, case_from_dict, load_case
     from .geometry import Shell
-    from .studies import convergence, sweep
+    from .studies import convergence, study, sweep
 
 __version__ = "0.1.0"
 
@@ -33,6 +33,7 @@ _LAZY = {
     "load_case": "case",
     "Shell": "geometry",
     "convergence": "studies",
+    "study": "studies",
     "sweep": "studies",
 }
 
@@ -47,6 +48,7 @@ __all__ = [
     "convergence",
     "load_case",
     "solve",
+    "study",
     "sweep",
     "__version__",
 ]

@@ -3,6 +3,8 @@
 Commands:
   run          solve one case file; write summary.json, fields.vtu, results.npz, PNG figures, report.html
   demo         the paper's problem by the penalty, active-set and dual methods, side by side
+  study        a parameter study over several case-file keys: grid, Latin hypercube, Monte Carlo or a CSV
+               table of points, on Dask (an embedded cluster or an existing one); CSV, Parquet, figures
   sweep        a load path: one solve per value of a case-file key, one CSV and plots (resumable)
   convergence  nested mesh refinement: dofs, energy, force/probe value, errors and observed rates
   verify       the paper's results as numerical checks (pass/fail table)
@@ -244,19 +246,62 @@ def cmd_verify(args: argparse.Namespace, con: Console) -> int:
     return run_verify(quiet=args.quiet)
 
 
+def _workers(args: argparse.Namespace, default: int | None) -> int | None:
+    """--serial, else --workers N (0: in this process), else ``default``."""
+    if args.scheduler is not None and (args.serial or args.workers is not None):
+        raise InputError("--scheduler", "the points run either on that cluster or here: drop --serial/--workers")
+    if args.serial:
+        return 0
+    if args.workers is not None:
+        if args.workers < 0:
+            raise InputError("--workers", f"must be >= 0 (0: in this process), got {args.workers}")
+        return args.workers
+    return default
+
+
 def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
     from .studies import parse_values, sweep, sweep_table
 
     values = parse_values(args.values, args.max_memory)
     if args.jobs < 1:
         raise InputError("--jobs", f"must be >= 1, got {args.jobs}")
+    workers = _workers(args, 0 if args.jobs == 1 else args.jobs)
     case, _ = _load(args)
     out = _output(args, "-sweep")
-    res = sweep(case, args.param, values, out, overwrite=args.force, wait=args.wait, jobs=args.jobs,
-                progress=con.progress, figures=not args.no_figures, max_memory=args.max_memory)
+    res = sweep(case, args.param, values, out, overwrite=args.force, wait=args.wait, workers=workers,
+                scheduler=args.scheduler, keep_fields=args.keep_fields, progress=con.progress, announce=con.print,
+                figures=not args.no_figures, max_memory=args.max_memory)
     if res.reused:
         con.print(f"resumed: {res.reused} of {len(values)} steps were already done")
     con.print(sweep_table(res))
+    con.print(f"wrote {out}/: {', '.join(res.files)}")
+    return EXIT_OK
+
+
+def cmd_study(args: argparse.Namespace, con: Console) -> int:
+    from .sampling import parse_spec, read_points, sample
+    from .studies import study, study_table
+
+    if args.points and args.param:
+        raise InputError("--points", "give either a table of points or -p KEY=SPEC, not both")
+    if args.points:
+        points, how = read_points(args.points), "points"
+    elif args.param:
+        specs = [parse_spec(item, args.max_memory) for item in args.param]
+        how = args.sample or ("grid" if all(s.dist is None for s in specs) else "lhs")
+        points = sample(specs, how, args.samples, args.seed, args.max_memory)
+    else:
+        raise InputError("-p", "give the keys to vary (-p KEY=SPEC, repeatable) or a table of points (--points)")
+    probe = tuple(c.strip() for c in args.probe.split(",") if c.strip())
+    case, _ = _load(args)
+    out = _output(args, "-study")
+    res = study(case, points, out, sampling=how, overwrite=args.force, wait=args.wait,
+                workers=_workers(args, None), scheduler=args.scheduler, keep_fields=args.keep_fields,
+                probe_components=probe, progress=con.progress, announce=con.print, figures=not args.no_figures,
+                max_memory=args.max_memory)
+    if res.reused:
+        con.print(f"resumed: {res.reused} of {len(points)} points were already done")
+    con.print(study_table(res))
     con.print(f"wrote {out}/: {', '.join(res.files)}")
     return EXIT_OK
 
@@ -346,6 +391,17 @@ def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
                    "memory available); a case estimated to need more is refused before anything is built")
 
 
+def _engine_args(p: argparse.ArgumentParser, default: str) -> None:
+    g = p.add_argument_group("where the points run (docs/studies.md)")
+    g.add_argument("--workers", type=int, metavar="N", help=f"an embedded Dask cluster of N worker processes "
+                   f"({default}; 0: in this process, as --serial)")
+    g.add_argument("--serial", action="store_true", help="solve the points one after another in this process")
+    g.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask cluster, e.g. tcp://host:8786 "
+                   "(default: the environment variable SHELLCONTACT_SCHEDULER, else an embedded cluster)")
+    g.add_argument("--keep-fields", nargs="?", const="npz", choices=("npz", "vtu"), metavar="npz|vtu",
+                   help="keep each point's fields: DIR/fields/NNNN/results.npz (vtu: and fields.vtu)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="shellcontact", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -393,9 +449,39 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SPEC",
         help="start:stop:count (ends included, e.g. 0:5e-3:11) or a comma list (1e-3,2e-3)",
     )
-    s.add_argument("--jobs", type=int, default=1, metavar="N", help="solve N steps in parallel processes")
+    s.add_argument("--jobs", type=int, default=1, metavar="N",
+                   help="solve N steps in parallel processes (default 1: in this process, in order)")
+    _engine_args(s, "default: --jobs")
     _common(s)
     s.set_defaults(func=cmd_sweep)
+
+    st = sub.add_parser(
+        "study",
+        description="A parameter study: solve the case at every point of a full grid (-p KEY=start:stop:count "
+        "or KEY=a,b,c), a Latin hypercube or Monte Carlo sample (-p KEY=uniform(lo,hi), normal(mean,sd), "
+        "lognormal(median,sigma); --sample lhs|mc, --samples N, --seed S) or a CSV table of points (--points). "
+        "Points run as Dask tasks on an embedded cluster (one worker per core) or an existing one "
+        "(--scheduler). Writes DIR/study.csv and study.parquet (one row per point: the keys, energy, max|w|, "
+        "probe displacements, contact figures), response.png, for random samples histograms.png, "
+        "sensitivity.png and sensitivity.csv (Spearman rank correlations), report.html. Finished points are "
+        "recorded in DIR/steps/; running the same command again resumes without recomputing them. "
+        "See docs/studies.md.",
+    )
+    _case_args(st, "output directory (default: <case name>-study)")
+    st.add_argument("-p", "--param", action="append", metavar="KEY=SPEC",
+                    help="a case-file key and its values: start:stop:count, a,b,c, uniform(lo,hi), normal(mean,sd) "
+                    "or lognormal(median,sigma); repeatable")
+    st.add_argument("--sample", choices=("grid", "lhs", "mc"),
+                    help="grid (every combination; the default for value lists), lhs (Latin hypercube; the "
+                    "default for distributions) or mc (Monte Carlo)")
+    st.add_argument("--samples", type=int, metavar="N", help="number of points of an lhs or mc sample")
+    st.add_argument("--seed", type=int, default=0, metavar="S", help="random seed of an lhs or mc sample (default 0)")
+    st.add_argument("--points", metavar="CSV", help="a table of points: a header of case-file keys, one row per point")
+    st.add_argument("--probe", default="w", metavar="C[,C]",
+                    help="the probes' displacement components in each row: u, v, w (default w)")
+    _engine_args(st, "default: one per core")
+    _common(st)
+    st.set_defaults(func=cmd_study)
 
     c = sub.add_parser(
         "convergence",

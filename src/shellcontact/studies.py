@@ -1,9 +1,10 @@
-"""Studies on Case objects through ``analysis.solve``: parameter sweeps and mesh convergence.
+"""Studies on Case objects through ``analysis.solve``: parameter studies, sweeps and mesh convergence.
 
-* ``sweep(case, param, values, output_dir=...)`` — one solve per value of a case-file key
-  (dotted path, e.g. ``punch.0.indentation``); one CSV row per step. With ``output_dir`` every
-  finished step is recorded atomically in ``output_dir/steps/`` and an interrupted sweep resumes
-  without recomputing them; ``jobs > 1`` solves steps in parallel processes.
+* ``study(case, points, output_dir=...)`` — one solve per point ({case-file key: value}; ``sampling``
+  builds grids, Latin hypercubes, Monte Carlo samples or reads a CSV table); one row per point. Points run
+  in this process or as Dask tasks (``engine``); with ``output_dir`` every finished point is recorded
+  atomically in ``output_dir/steps/`` and an interrupted study resumes without recomputing them.
+* ``sweep(case, param, values, output_dir=...)`` — the one-key study of a load path (``sweep.csv``).
 * ``convergence(case, levels)`` — nested uniform refinement ``mesh.refine = r0 … r0+L−1``: dofs,
   energy, a force or probe value, errors against the finest level and observed rates.
 """
@@ -20,18 +21,21 @@ import numbers
 import os
 import shutil
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
 from .arguments import expect_callable, expect_integer, expect_numbers, expect_path
 from .case import Case, case_from_dict, expect_case, key_kind
 from .errors import InputError
-from .files import atomic_write_bytes, atomic_write_text, check_output_dir, write_json
+from .files import atomic_write_bytes, atomic_write_text, atomic_write_with, check_output_dir, write_json
 from .overrides import apply_overrides, split_path
+from .sampling import (
+    Point,
+    parse_values,  # noqa: F401 — public here too (the sweep's --values; arguments.py names it)
+    whole_value,
+)
 
 log = logging.getLogger("shellcontact")
 
@@ -47,53 +51,9 @@ CONTACT_COLUMNS = (
 )
 
 
-# -- values ----------------------------------------------------------------------------------------------
-def parse_values(spec: str, max_memory: float | str | None = None) -> list[float]:
-    """``'0:5e-3:11'`` (start:stop:count, both ends included) or ``'1e-3,2e-3,4e-3'``. A count
-    whose steps cannot be recorded in ``max_memory`` (default: the memory available) is refused
-    before any list is built (``sizing.check_steps``)."""
-    from .sizing import check_steps
-
-    where = "--values"
-    text = spec.strip()
-    usage = f"expected start:stop:count (e.g. 0:5e-3:11) or a comma list (e.g. 1e-3,2e-3), got {spec!r}"
-    if ":" in text:
-        parts = text.split(":")
-        try:
-            if len(parts) != 3:
-                raise ValueError
-            start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
-        except ValueError:
-            raise InputError(where, usage) from None
-        if count < 1:
-            raise InputError(where, f"count must be >= 1, got {count}")
-        check_steps(count, max_memory)  # before the list is built
-        if not (math.isfinite(start) and math.isfinite(stop)):
-            raise InputError(where, f"values must be finite, got {spec!r}")
-        if count == 1:
-            return [start]
-        # to 12 significant digits: 0.006, not the 0.006000000000000001 of the arithmetic
-        return [float(f"{start + (stop - start) * i / (count - 1):.12g}") for i in range(count)]
-    check_steps(text.count(",") + 1, max_memory)
-    try:
-        vals = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise InputError(where, usage) from None
-    if not vals:
-        raise InputError(where, "no values given")
-    if not all(math.isfinite(v) for v in vals):
-        raise InputError(where, f"values must be finite, got {spec!r}")
-    return vals
-
-
-def _value(v: float) -> int | float:
-    """Integral values of integer keys (mesh.refine=2) stay integers."""
-    return int(v) if float(v).is_integer() and abs(v) < 2**53 else float(v)
-
-
 # -- rows -----------------------------------------------------------------------------------------------
 #: the kind of quantity (units.KINDS) of each CSV column, by name pattern (None: a count or dimensionless)
-COLUMN_KINDS = (("dofs", None), ("energy", "energy"), ("max_abs_w", "length"), ("probe*_w", "length"),
+COLUMN_KINDS = (("dofs", None), ("energy", "energy"), ("max_abs_w", "length"), ("probe*_[uvw]", "length"),
                 ("normal_force*", "force"), ("force*", "force"), ("zone_area*", "area"), ("area*", "area"),
                 ("peak_pressure*", "pressure"), ("active_vertices*", None), ("punch_travel*", "length"),
                 ("iterations", None))
@@ -103,15 +63,17 @@ def column_kind(column: str) -> str | None:
     return next((kind for pattern, kind in COLUMN_KINDS if fnmatchcase(column, pattern)), None)
 
 
-def summary_row(summary: dict[str, Any]) -> dict[str, Any]:
-    """The CSV columns of one solve: dofs, energy, max|w|, probe w, and contact columns when present."""
+def summary_row(summary: dict[str, Any], probe_components: Sequence[str] = ("w",)) -> dict[str, Any]:
+    """The CSV columns of one solve: dofs, energy, max|w|, the probes' displacements (``probe<i>_<c>`` for
+    each of ``probe_components``), and contact columns when present."""
     row: dict[str, Any] = {
         "dofs": summary.get("dofs"),
         "energy": summary.get("energy"),
         "max_abs_w": summary.get("max_abs_w"),
     }
     for i, p in enumerate(summary.get("probes") or []):
-        row[f"probe{i}_w"] = p.get("w")
+        for c in probe_components:
+            row[f"probe{i}_{c}"] = p.get(c)
     contact = summary.get("contact")
     if contact:
         entries = contact if isinstance(contact, list) else [contact]
@@ -153,6 +115,319 @@ def write_csv(path: str | Path, rows: Sequence[dict[str, Any]]) -> Path:
     return Path(path)
 
 
+# -- the study engine ---------------------------------------------------------------------------------------
+#: a study's records of finished points (``steps/step-NNNN.json``) and kept fields (``fields/NNNN/``)
+RECORDS, FIELDS = "steps", "fields"
+#: ``keep_fields``: what each point keeps
+KEEP_FILES = {None: (), "npz": ("results.npz",), "vtu": ("results.npz", "fields.vtu")}
+PROBE_COMPONENTS = ("u", "v", "w")
+
+
+def _fingerprint(raw: dict[str, Any], source: Any) -> str:
+    text = json.dumps({"case": raw, "source": str(source)}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _point_cases(case: Case, points: Sequence[Point], source: str | None, label: Callable[[int], str],
+                 option: str) -> list[tuple[dict, Case]]:
+    """Every point's case, validated through the schema before the first solve; a bad key or value names its
+    point (a key path that does not fit the case, the ``option`` that gave it)."""
+    out = []
+    for i, point in enumerate(points):
+        try:
+            raw = apply_overrides(case.raw, point)
+            out.append((raw, case_from_dict(raw, source=source)))
+        except InputError as exc:
+            where = option + exc.field.removeprefix("--set") if exc.field.startswith("--set ") else exc.field
+            raise InputError(where, f"{exc.message} ({label(i)})") from None
+    return out
+
+
+def _record_path(steps: Path, index: int) -> Path:
+    return steps / f"step-{index:04d}.json"
+
+
+def _fields_dir(work: Path, index: int) -> Path:
+    return work / FIELDS / f"{index:04d}"
+
+
+def _load_record(work: Path, index: int, fingerprint: str, keep: Sequence[str] = ()) -> dict[str, Any] | None:
+    """A finished point's record when it belongs to this case and holds the fields asked for."""
+    try:
+        rec = json.loads(_record_path(work / RECORDS, index).read_text())
+    except (OSError, ValueError):
+        return None
+    if not (isinstance(rec, dict) and rec.get("fingerprint") == fingerprint and "row" in rec):
+        return None
+    return rec if all((_fields_dir(work, index) / name).is_file() for name in keep) else None
+
+
+def _solve_group(cases: Sequence[Case], max_memory: float | str | None = None) -> list[Any]:
+    """The results (``analysis.Result``) of cases that differ at most in their [punch] tables, in order.
+
+    Each case is solved alone, from its own data (no warm start), so a point's numbers do not depend on
+    which points share its task: the one place where such a family could share the shell's factorisation.
+    """
+    from .analysis import solve
+
+    return [solve(c, max_memory=max_memory) for c in cases]
+
+
+def _field_bytes(result: Any, keep: Sequence[str]) -> dict[str, bytes]:
+    """The kept files of one point as bytes (a worker need not share the study's filesystem)."""
+    if not keep:
+        return {}
+    import tempfile
+
+    from .writers import write_npz, write_vtu
+
+    writers = {"results.npz": write_npz, "fields.vtu": write_vtu}
+    out = {}
+    with tempfile.TemporaryDirectory(prefix="shellcontact-fields-") as tmp:
+        for name in keep:
+            path = Path(tmp) / name
+            writers[name](result, path)
+            out[name] = path.read_bytes()
+    return out
+
+
+def _solve_points(raws: Sequence[dict], source: str | None, keep: Sequence[str],
+                  max_memory: float | str | None = None,
+                  cases: Sequence[Case] | None = None) -> list[tuple[dict[str, Any], dict[str, bytes]]]:
+    """One task: the summaries (and kept files) of a family of points (in a worker the cases are validated
+    again from ``raws``)."""
+    if cases is None:
+        cases = [case_from_dict(raw, source=source) for raw in raws]
+    return [(r.summary(), _field_bytes(r, keep)) for r in _solve_group(cases, max_memory)]
+
+
+def _families(raws: Sequence[dict], todo: Sequence[int]) -> list[list[int]]:
+    """The points whose cases differ only in [punch]-table keys (a family shares the shell's stiffness),
+    each family in point order."""
+    families: dict[str, list[int]] = {}
+    for i in todo:
+        shell = json.dumps({k: v for k, v in raws[i].items() if k != "punch"}, sort_keys=True, default=str)
+        families.setdefault(shell, []).append(i)
+    return list(families.values())
+
+
+#: the most points in one task: past ~16 a shared factorisation saves little more per point (1/16 of one)
+#: while a task lost with its worker, or not yet recorded at an interruption, costs more
+TASK_POINTS = 16
+
+
+def _tasks(raws: Sequence[dict], todo: Sequence[int], workers: int) -> list[list[int]]:
+    """Families cut into ordered runs of at most ⌈len(todo)/workers⌉ (and TASK_POINTS) points: one task each,
+    so that every worker gets work and a family's points stay together."""
+    size = max(1, min(TASK_POINTS, math.ceil(len(todo) / max(1, workers))))
+    return [fam[k:k + size] for fam in _families(raws, todo) for k in range(0, len(fam), size)]
+
+
+def _run_points(
+    points: Sequence[tuple[dict, Case]],
+    source: str | None,
+    fps: Sequence[str],
+    work: Path | None,
+    *,
+    workers: int | None,
+    scheduler: str | None,
+    row_of: Callable[[int, dict[str, Any]], dict[str, Any]],
+    label: Callable[[int], str],
+    title: str,
+    progress: Progress | None,
+    announce: Callable[[str], None] | None,
+    keep: Sequence[str],
+    max_memory: float | str | None,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]], int]:
+    """Solve the points without a record in ``work``: serially (``workers == 0``) or as Dask tasks; each
+    finished point's kept files and record are written as it arrives (the record last)."""
+    from .engine import SCHEDULER_ENV, open_engine, scheduler_address
+
+    n = len(points)
+    rows: list[dict[str, Any] | None] = [None] * n
+    sums: list[dict[str, Any] | None] = [None] * n
+    reused = 0
+    if work is not None:
+        (work / RECORDS).mkdir(parents=True, exist_ok=True)
+        for tmp in (work / RECORDS).glob(".step-*.tmp"):  # left by a study killed while writing a record
+            tmp.unlink(missing_ok=True)
+        for i in range(n):
+            rec = _load_record(work, i, fps[i], keep)
+            if rec is not None:
+                rows[i], sums[i] = rec["row"], rec.get("summary", {})
+                reused += 1
+    if reused:
+        log.info("resuming: %d of %d points already done in %s", reused, n, work)
+    done = reused
+    if progress:
+        progress(done, n, title)
+    todo = [i for i in range(n) if rows[i] is None]
+    if not todo:
+        return rows, sums, reused  # type: ignore[return-value]
+
+    def finished(i: int, summary: dict[str, Any], files: dict[str, bytes]) -> None:
+        nonlocal done
+        row = row_of(i, summary)
+        if work is not None:
+            for name, data in files.items():
+                atomic_write_bytes(_fields_dir(work, i) / name, data)
+            write_json(_record_path(work / RECORDS, i),
+                       {"index": i, "fingerprint": fps[i], "row": row, "summary": summary, "fields": sorted(files)})
+        rows[i], sums[i] = row, summary
+        done += 1
+        log.info("point %d/%d: %s, energy %.6g", i + 1, n, label(i), summary.get("energy", math.nan))
+        if progress:
+            progress(done, n, label(i))
+
+    # SHELLCONTACT_SCHEDULER stands for the default (workers None), never for an explicit --workers/--serial
+    address = scheduler_address(scheduler) if scheduler is not None or workers is None else None
+    if address is None and workers is not None:
+        workers = min(workers, len(todo))
+    if address is None and (workers == 0 or len(todo) == 1):
+        workers = 0  # one point: no cluster to start
+    elif address is None and workers is None:
+        workers = min(os.cpu_count() or 1, len(todo))
+    with open_engine(workers, address, "--scheduler" if scheduler is not None else SCHEDULER_ENV) as engine:
+        if announce and workers != 0:
+            dashboard = f"; dashboard {engine.dashboard}" if engine.dashboard else ""
+            announce(f"solving {len(todo)} points on {engine.description}{dashboard}")
+        if workers == 0 and address is None:
+            tasks = [[i] for i in todo]
+            args = [([points[i][0]], source, keep, max_memory, [points[i][1]]) for i in todo]
+        else:
+            tasks = _tasks([raw for raw, _ in points], todo, engine.workers)
+            args = [([points[i][0] for i in t], source, keep, max_memory) for t in tasks]
+
+        def task_done(k: int, value: list[tuple[dict[str, Any], dict[str, bytes]]]) -> None:
+            for i, (summary, files) in zip(tasks[k], value):
+                finished(i, summary, files)
+
+        def describe(k: int) -> str:  # a task's points (a family's are not always consecutive)
+            t = tasks[k]
+            if len(t) == 1:
+                return f"the point {t[0]} ({label(t[0])})"
+            return f"the points {', '.join(map(str, t[:6]))}{', …' if len(t) > 6 else ''} ({label(t[0])}, …)"
+
+        engine.run(_solve_points, args, task_done, describe)
+    return rows, sums, reused  # type: ignore[return-value]
+
+
+def _same_study(directory: Path, manifest_name: str, manifest: dict[str, Any], identity: Sequence[str]) -> bool:
+    """Whether ``directory`` holds (part of) this very study: the same case and points."""
+    try:
+        old = json.loads((directory / manifest_name).read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(old, dict) and all(old.get(k) == manifest[k] for k in identity)
+
+
+def _in_directory(
+    target: Path,
+    *,
+    manifest_name: str,
+    manifest: dict[str, Any],
+    identity: Sequence[str],
+    final: Sequence[str],
+    entries: Sequence[str],
+    overwrite: bool,
+    wait: bool,
+    solve: Callable[[Path], Any],
+    write: Callable[[Any, Path], list[str]],
+) -> tuple[Any, list[str]]:
+    """A resumable study in ``target``: records of finished points in place, the final files together.
+
+    A fresh or resumed study records its points in place (resumable); one replacing another result works
+    beside it and keeps that result until the new one is complete. ``solve(work)`` computes, ``write(res,
+    directory)`` writes the final files and returns their names.
+    """
+    from .transaction import DirectoryLock, Staging, name_in_target, remove_stale
+
+    resume = not overwrite and _same_study(target, manifest_name, manifest, identity)
+    if not resume:
+        check_output_dir(target, overwrite)
+    with DirectoryLock(target, wait=wait):
+        remove_stale(target)
+        resume = not overwrite and _same_study(target, manifest_name, manifest, identity)
+        if not resume:
+            check_output_dir(target, overwrite)
+        in_place = resume or not target.exists() or not any(target.iterdir())
+        created, fresh = not target.exists(), in_place and not resume
+        stage = None if in_place else Staging(target)
+        work = target if stage is None else stage.path
+        try:
+            work.mkdir(parents=True, exist_ok=True)
+            write_json(work / manifest_name, manifest)
+            res = solve(work)
+            if stage is None:
+                stage = Staging(target)  # the final files appear together beside the records
+            names = write(res, stage.path)
+            stage.commit(final if in_place else entries)
+        except BaseException as exc:
+            if stage is not None:
+                stage.discard()
+                if isinstance(exc, OSError):
+                    name_in_target(exc, stage.path, target)
+            if fresh and not any((target / RECORDS).glob("step-*.json")):  # nothing worth resuming: leave nothing
+                if created:
+                    shutil.rmtree(target, ignore_errors=True)
+                else:
+                    for name in (RECORDS, FIELDS):
+                        shutil.rmtree(target / name, ignore_errors=True)
+                    (target / manifest_name).unlink(missing_ok=True)
+            raise
+    return res, names
+
+
+def _keep_files(keep_fields: str | None) -> tuple[str, ...]:
+    if keep_fields not in KEEP_FILES:
+        raise InputError("--keep-fields", f"one of npz, vtu, got {keep_fields!r}")
+    return KEEP_FILES[keep_fields]
+
+
+def _check_workers(workers: int | None) -> None:
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
+        raise InputError("--workers", f"must be an integer >= 0 (0: in this process), got {workers!r}")
+
+
+def write_parquet(path: str | Path, rows: Sequence[dict[str, Any]], units: dict[str, str]) -> Path | None:
+    """The rows as a Parquet table (each column's unit in its field metadata); None, with a message, when
+    pyarrow is not installed (``pip install 'shellcontact[parquet]'``)."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        log.warning("%s not written: Parquet needs pyarrow (pip install 'shellcontact[parquet]'); the CSV has "
+                    "the same table", Path(path).name)
+        return None
+    cols: list[str] = []
+    for r in rows:
+        cols += [c for c in r if c not in cols]
+    arrays = []
+    for c in cols:
+        values = [r.get(c) for r in rows]
+        try:
+            arrays.append(pa.array(values))
+        except (pa.ArrowInvalid, pa.ArrowTypeError):  # e.g. numbers and words in one column of a points table
+            arrays.append(pa.array([None if v is None else str(v) for v in values]))
+    table = pa.Table.from_arrays(arrays, names=cols)
+    fields = [f.with_metadata({"unit": units[f.name]}) if units.get(f.name) else f for f in table.schema]
+    table = table.cast(pa.schema(fields))
+    atomic_write_with(path, lambda tmp: pq.write_table(table, tmp))
+    return Path(path)
+
+
+def column_units(columns: Sequence[str], keys: Sequence[str], system: str) -> dict[str, str]:
+    """The unit of every column in ``system`` (the case's ``[units] system``); '' when dimensionless."""
+    from .units import label
+
+    out = {}
+    for c in columns:
+        kind = key_kind(c) if c in keys else column_kind(c)
+        unit = label(kind, system) if kind else ""
+        out[c] = "" if unit == "–" else unit
+    return out
+
+
 # -- sweep ----------------------------------------------------------------------------------------------
 @dataclass
 class SweepResult:
@@ -167,163 +442,9 @@ class SweepResult:
         return csv_text(self.rows)
 
 
-SWEEP_FINAL = ("sweep.csv", "sweep.png", "force_indentation.png", "report.html")
+SWEEP_FINAL = ("sweep.csv", "sweep.parquet", "sweep.png", "force_indentation.png", "report.html")
 #: what a sweep writes into its directory (``overwrite`` replaces exactly these)
-SWEEP_ENTRIES = (*SWEEP_FINAL, "sweep.json", "steps")
-
-
-def _fingerprint(raw: dict[str, Any], source: Any) -> str:
-    text = json.dumps({"case": raw, "source": str(source)}, sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()
-
-
-def _step_cases(case: Case, param: str, vals: Sequence[Any], source: str | None) -> list[tuple[dict, Case]]:
-    """Every step's case, validated before the first solve; a bad value names its step."""
-    steps = []
-    for i, v in enumerate(vals):
-        raw = apply_overrides(case.raw, {param: v})
-        try:
-            steps.append((raw, case_from_dict(raw, source=source)))
-        except InputError as exc:
-            raise InputError(exc.field, f"{exc.message} (sweep step {i}: {param} = {v!r})") from None
-    return steps
-
-
-def _record_path(steps: Path, index: int) -> Path:
-    return steps / f"step-{index:04d}.json"
-
-
-def _load_record(steps: Path, index: int, fingerprint: str) -> dict[str, Any] | None:
-    path = _record_path(steps, index)
-    try:
-        rec = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return None
-    return rec if rec.get("fingerprint") == fingerprint and "row" in rec else None
-
-
-def _solve_summary(case: Case, max_memory: float | str | None = None):
-    from .analysis import solve
-
-    result = solve(case, max_memory=max_memory)
-    return result, result.summary()
-
-
-def _step_row(param: str, value: Any, summary: dict[str, Any]) -> dict[str, Any]:
-    return {param: value, **summary_row(summary)}
-
-
-def _solve_step(raw: dict, source: str | None, param: str, index: int, value: Any, steps: str | None, fp: str,
-                case: Case | None = None, max_memory: float | str | None = None):
-    """One sweep step, recorded in ``steps/`` when given (in a worker the case is re-validated from ``raw``).
-
-    Every step starts from its own case alone (no warm start from a neighbour), so a step's numbers
-    do not depend on the order, on ``jobs`` or on an interruption: a resumed sweep writes the CSV an
-    uninterrupted one would.
-    """
-    _, summary = _solve_summary(case if case is not None else case_from_dict(raw, source=source), max_memory)
-    row = _step_row(param, value, summary)
-    if steps is not None:
-        write_json(
-            _record_path(Path(steps), index),
-            {"index": index, "value": value, "fingerprint": fp, "row": row, "summary": summary},
-        )
-    return index, row, summary
-
-
-def _worker_init(parent: int) -> None:
-    """A sweep worker dies with its parent (SIGKILL included) and leaves Ctrl-C to it."""
-    import signal
-    import sys
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the pool on Ctrl-C
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        try:  # PR_SET_PDEATHSIG = 1: the kernel kills us when the parent (its forking thread) ends
-            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL, 0, 0, 0)
-        except (OSError, AttributeError):
-            pass
-    if os.getppid() != parent:  # the parent died before the death signal was armed
-        os._exit(1)
-
-
-def _stop(pool: ProcessPoolExecutor) -> None:
-    """Cancel what has not started and kill the workers now (a shutdown would wait for running steps)."""
-    processes = list(getattr(pool, "_processes", {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for proc in processes:
-        proc.kill()
-    for proc in processes:
-        proc.join(timeout=1.0)
-
-
-def _run_steps(
-    param: str,
-    vals: list[Any],
-    steps_in: list[tuple[dict, Case]],
-    source: str | None,
-    fps: list[str],
-    steps: Path | None,
-    jobs: int,
-    progress: Progress | None,
-    max_memory: float | str | None = None,
-) -> tuple[list[dict[str, Any]], list[dict[str, Any]], int]:
-    """Solve the steps without a record in ``steps`` (serially or in ``jobs`` processes)."""
-    n = len(vals)
-    rows: list[dict[str, Any] | None] = [None] * n
-    sums: list[dict[str, Any] | None] = [None] * n
-    reused = 0
-    if steps is not None:
-        steps.mkdir(parents=True, exist_ok=True)
-        for tmp in steps.glob(".step-*.tmp"):  # left by a sweep killed while writing a record
-            tmp.unlink(missing_ok=True)
-        for i in range(n):
-            rec = _load_record(steps, i, fps[i])
-            if rec is not None:
-                rows[i], sums[i] = rec["row"], rec.get("summary", {})
-                reused += 1
-    if reused:
-        log.info("resuming: %d of %d steps already done in %s", reused, n, steps)
-    done = reused
-    if progress:
-        progress(done, n, f"{param} sweep")
-    todo = [i for i in range(n) if rows[i] is None]
-    where = str(steps) if steps is not None else None
-
-    def finished(i: int, row: dict[str, Any], summary: dict[str, Any]) -> None:
-        nonlocal done
-        rows[i], sums[i] = row, summary
-        done += 1
-        log.info("step %d/%d: %s = %g, energy %.6g", i + 1, n, param, vals[i], summary.get("energy", math.nan))
-        if progress:
-            progress(done, n, f"{param} = {vals[i]:g}")
-
-    if jobs > 1 and len(todo) > 1:
-        pool = ProcessPoolExecutor(max_workers=min(jobs, len(todo)), mp_context=get_context("spawn"),
-                                   initializer=_worker_init, initargs=(os.getpid(),))
-        try:
-            futs = [pool.submit(_solve_step, steps_in[i][0], source, param, i, vals[i], where, fps[i], None, max_memory)
-                    for i in todo]
-            for fut in as_completed(futs):
-                finished(*fut.result())
-        except BaseException:  # Ctrl-C, SIGTERM, a failed step: stop at once
-            _stop(pool)
-            raise
-        pool.shutdown()
-    else:
-        for i in todo:
-            finished(*_solve_step(steps_in[i][0], source, param, i, vals[i], where, fps[i], steps_in[i][1], max_memory))
-    return rows, sums, reused  # type: ignore[return-value]
-
-
-def _same_sweep(directory: Path, manifest: dict[str, Any]) -> bool:
-    """Whether ``directory`` holds (part of) this very sweep: same case, parameter and values."""
-    try:
-        old = json.loads((directory / "sweep.json").read_text())
-    except (OSError, ValueError):
-        return False
-    return isinstance(old, dict) and all(old.get(k) == manifest[k] for k in ("case", "param", "values"))
+SWEEP_ENTRIES = (*SWEEP_FINAL, "sweep.json", RECORDS, FIELDS)
 
 
 def sweep(
@@ -335,23 +456,29 @@ def sweep(
     overwrite: bool = False,
     wait: bool = False,
     jobs: int = 1,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    keep_fields: str | None = None,
     progress: Progress | None = None,
+    announce: Callable[[str], None] | None = None,
     figures: bool = True,
     max_memory: float | str | None = None,
 ) -> SweepResult:
-    """Solve ``case`` for each value of the case-file key ``param`` (dotted path) in order.
+    """Solve ``case`` for each value of the case-file key ``param`` (dotted path): the one-key ``study``.
 
-    Every step's case is validated before the first solve. With ``output_dir``: step records
-    ``steps/step-NNNN.json`` (written as each step finishes; a record is reused when its case
-    fingerprint matches, so running the same sweep again resumes it), then ``sweep.csv``,
-    ``sweep.json`` and the figures ``sweep.png`` and, with contact, ``force_indentation.png``, and
-    ``report.html``, which appear together. A non-empty directory that does not hold this sweep is
-    refused unless ``overwrite``; then the new sweep is staged beside it and replaces it only when
-    complete (the previous result is kept until then; an interrupted ``overwrite`` sweep starts over).
-    ``max_memory`` bounds every step's solve (``analysis.solve``) and the steps' records.
+    Every step's case is validated before the first solve. Where the steps run: ``workers`` as in ``study``
+    (0: in this process; N: an embedded Dask cluster of N processes; ``scheduler``: an existing Dask
+    cluster), else ``jobs`` (1, the default: in this process, in order; N > 1: N processes). With
+    ``output_dir``: step records ``steps/step-NNNN.json`` (written as each step finishes; a record is reused
+    when its case fingerprint matches, so running the same sweep again resumes it), then ``sweep.csv``,
+    ``sweep.parquet`` (with pyarrow), ``sweep.json`` and the figures ``sweep.png`` and, with contact,
+    ``force_indentation.png``, and ``report.html``, which appear together. ``keep_fields`` ("npz" or
+    "vtu") keeps each step's ``fields/NNNN/results.npz`` (and ``fields.vtu``). A non-empty directory that
+    does not hold this sweep is refused unless ``overwrite``; then the new sweep is staged beside it and
+    replaces it only when complete (the previous result is kept until then; an interrupted ``overwrite``
+    sweep starts over). ``max_memory`` bounds every step's solve (``analysis.solve``) and the steps' records.
     """
     from .sizing import check_steps
-    from .transaction import DirectoryLock, Staging, name_in_target, remove_stale
 
     expect_case(case, "sweep")
     if not isinstance(param, str):
@@ -360,71 +487,53 @@ def sweep(
     values = expect_numbers(values, "sweep", "values")
     expect_path(output_dir, "sweep", "output_dir", optional=True)
     jobs = expect_integer(jobs, "sweep", "jobs", 1)
+    _check_workers(workers)
     expect_callable(progress, "sweep", "progress")
+    keep = _keep_files(keep_fields)
     split_path(param)
     if not values:
         raise InputError("--values", "no values given")
     check_steps(len(values), max_memory)
-    vals = [_value(v) for v in values]
+    if workers is None:
+        workers = 0 if jobs == 1 else jobs
+    vals = [whole_value(v) for v in values]
     source = str(case.source) if case.source is not None else None
-    steps_in = _step_cases(case, param, vals, source)
-    fps = [_fingerprint(raw, source) for raw, _ in steps_in]
-    if output_dir is None:
-        rows, sums, reused = _run_steps(param, vals, steps_in, source, fps, None, jobs, progress, max_memory)
+    points = _point_cases(case, [{param: v} for v in vals], source, lambda i: f"sweep step {i}: {param} = {vals[i]!r}",
+                          "--param")
+    fps = [_fingerprint(raw, source) for raw, _ in points]
+
+    def solve(work: Path | None) -> SweepResult:
+        rows, sums, reused = _run_points(
+            points, source, fps, work, workers=workers, scheduler=scheduler,
+            row_of=lambda i, s: {param: vals[i], **summary_row(s)}, label=lambda i: f"{param} = {vals[i]:g}",
+            title=f"{param} sweep", progress=progress, announce=announce, keep=keep, max_memory=max_memory)
         return SweepResult(param, [float(v) for v in vals], rows, sums, reused)
 
+    if output_dir is None:
+        return solve(None)
     target = Path(output_dir)
     manifest = {"case_file": source, "case": _fingerprint(case.raw, source), "param": param, "values": vals}
-    resume = not overwrite and _same_sweep(target, manifest)
-    if not resume:
-        check_output_dir(target, overwrite)
-    with DirectoryLock(target, wait=wait):
-        remove_stale(target)
-        resume = not overwrite and _same_sweep(target, manifest)
-        if not resume:
-            check_output_dir(target, overwrite)
-        # a fresh or resumed sweep records its steps in place (resumable); one replacing another
-        # result works beside it and keeps that result until the new one is complete
-        in_place = resume or not target.exists() or not any(target.iterdir())
-        created, fresh = not target.exists(), in_place and not resume
-        stage = None if in_place else Staging(target)
-        work = target if stage is None else stage.path
-        try:
-            work.mkdir(parents=True, exist_ok=True)
-            write_json(work / "sweep.json", manifest)
-            rows, sums, reused = _run_steps(param, vals, steps_in, source, fps, work / "steps", jobs, progress,
-                                            max_memory)
-            res = SweepResult(param, [float(v) for v in vals], rows, sums, reused)
-            if stage is None:
-                stage = Staging(target)  # the final files appear together beside the step records
-            names = _write_sweep_files(res, stage.path, param, figures, source, case.raw)
-            stage.commit(SWEEP_FINAL if in_place else SWEEP_ENTRIES)
-        except BaseException as exc:
-            if stage is not None:
-                stage.discard()
-                if isinstance(exc, OSError):
-                    name_in_target(exc, stage.path, target)
-            if fresh and not any((target / "steps").glob("step-*.json")):  # nothing worth resuming: leave nothing
-                if created:
-                    shutil.rmtree(target, ignore_errors=True)
-                else:
-                    shutil.rmtree(target / "steps", ignore_errors=True)
-                    (target / "sweep.json").unlink(missing_ok=True)
-            raise
+    res, names = _in_directory(
+        target, manifest_name="sweep.json", manifest=manifest, identity=("case", "param", "values"),
+        final=SWEEP_FINAL, entries=SWEEP_ENTRIES, overwrite=overwrite, wait=wait, solve=solve,
+        write=lambda r, out: _write_sweep_files(r, out, param, figures, source, case.raw))
     res.files = {name: target / name for name in names}
     return res
 
 
 def _write_sweep_files(res: SweepResult, out: Path, param: str, figures: bool, source: str | None,
                        raw: dict[str, Any]) -> list[str]:
-    """sweep.csv, the figures and report.html into ``out``; returns their names."""
+    """sweep.csv, sweep.parquet, the figures and report.html into ``out``; returns their names."""
     names = ["sweep.csv"]
     write_csv(out / "sweep.csv", res.rows)
+    system = res.summaries[0].get("unit_system", "SI") if res.summaries else "SI"
+    cols = list(dict.fromkeys(c for r in res.rows for c in r))
+    if write_parquet(out / "sweep.parquet", res.rows, column_units(cols, [param], system)) is not None:
+        names.append("sweep.parquet")
     pngs: dict[str, bytes] = {}
     if figures:
         from . import plots
 
-        system = res.summaries[0].get("unit_system", "SI") if res.summaries else "SI"
         kind = key_kind(param)
         pngs["sweep.png"] = plots.png_bytes(plots.plot_sweep(res.rows, param, system=system, param_kind=kind))
         fi = plots.plot_force_indentation(res.rows, param, system=system, param_kind=kind)
@@ -438,6 +547,209 @@ def _write_sweep_files(res: SweepResult, out: Path, param: str, figures: bool, s
     about = {"case file": source, "parameter": param, "values": len(res.values), "reused steps": res.reused}
     write_study_report(out / "report.html", f"shellcontact sweep: {param}", res.rows, pngs, about, raw)
     return [*names, "report.html"]
+
+
+# -- study ----------------------------------------------------------------------------------------------
+@dataclass
+class StudyResult:
+    keys: list[str]
+    points: list[Point]
+    rows: list[dict[str, Any]]
+    summaries: list[dict[str, Any]]
+    sampling: str = "points"
+    reused: int = 0
+    sensitivity: dict[str, dict[str, float | None]] = field(default_factory=dict)
+    files: dict[str, Path] = field(default_factory=dict)
+
+    def csv(self) -> str:
+        return csv_text(self.rows)
+
+
+STUDY_FINAL = ("study.csv", "study.parquet", "sensitivity.csv", "response.png", "histograms.png",
+               "sensitivity.png", "report.html")
+#: what a study writes into its directory (``overwrite`` replaces exactly these)
+STUDY_ENTRIES = (*STUDY_FINAL, "study.json", RECORDS, FIELDS)
+#: samplings whose points are random draws (histograms and rank correlations make sense)
+RANDOM_SAMPLINGS = ("lhs", "mc")
+#: row columns that are counts rather than responses
+_COUNTS = ("dofs", "iterations", "active_vertices")
+
+
+def study(
+    case: Case,
+    points: Sequence[Point],
+    output_dir: str | Path | None = None,
+    *,
+    sampling: str = "points",
+    overwrite: bool = False,
+    wait: bool = False,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    keep_fields: str | None = None,
+    probe_components: Sequence[str] = ("w",),
+    progress: Progress | None = None,
+    announce: Callable[[str], None] | None = None,
+    figures: bool = True,
+    max_memory: float | str | None = None,
+) -> StudyResult:
+    """Solve ``case`` at every point ({case-file key: value}, e.g. from ``sampling.grid``) in order.
+
+    Every point's case is validated through the schema before the first solve. Where the points run:
+    ``workers`` 0 in this process; otherwise as Dask tasks, on ``scheduler`` (or ``SHELLCONTACT_SCHEDULER``)
+    when given, else on an embedded cluster of ``workers`` processes (None: one per core); every point is
+    solved from its own case alone, so its row is the same wherever and in whatever order it runs. One row
+    per point: its keys' values, the summary's figures (``summary_row``) with the probes' displacement
+    ``probe_components``. With ``output_dir`` the records ``steps/step-NNNN.json`` are written as the points
+    finish (a rerun resumes), then together ``study.csv``, ``study.parquet`` (with pyarrow), the figures
+    (``response.png``; for random ``sampling`` "lhs"/"mc" also ``histograms.png``, ``sensitivity.png`` and
+    ``sensitivity.csv``: Spearman rank correlations) and ``report.html``. ``keep_fields`` ("npz", "vtu")
+    keeps each point's ``fields/NNNN/results.npz`` (and ``fields.vtu``). Directory rules as ``sweep``.
+    """
+    from .sizing import check_steps
+
+    expect_case(case, "study")
+    expect_path(output_dir, "study", "output_dir", optional=True)
+    _check_workers(workers)
+    expect_callable(progress, "study", "progress")
+    keep = _keep_files(keep_fields)
+    components = tuple(probe_components)
+    bad = [c for c in components if c not in PROBE_COMPONENTS]
+    if bad or not components:
+        raise InputError("--probe", f"components among {', '.join(PROBE_COMPONENTS)}, got {','.join(components)!r}")
+    points = [dict(p) for p in points]
+    if not points:
+        raise InputError("-p", "the study has no points")
+    check_steps(len(points), max_memory, where="--samples")
+    keys = list(dict.fromkeys(k for p in points for k in p))
+    for k in keys:
+        split_path(k)
+    source = str(case.source) if case.source is not None else None
+
+    def label(i: int) -> str:
+        return f"point {i}: " + ", ".join(f"{k} = {v!r}" for k, v in points[i].items())
+
+    cases = _point_cases(case, points, source, label, "--points" if sampling == "points" else "-p")
+    fps = [_fingerprint({"case": raw, "probe": components}, source) for raw, _ in cases]
+
+    def solve(work: Path | None) -> StudyResult:
+        rows, sums, reused = _run_points(
+            cases, source, fps, work, workers=workers, scheduler=scheduler,
+            row_of=lambda i, s: {**points[i], **summary_row(s, components)},
+            label=lambda i: ", ".join(f"{k} = {_short(v)}" for k, v in points[i].items()),
+            title=f"{sampling} study", progress=progress, announce=announce, keep=keep, max_memory=max_memory)
+        res = StudyResult(keys, points, rows, sums, sampling, reused)
+        if sampling in RANDOM_SAMPLINGS:
+            res.sensitivity = sensitivity(rows, keys)
+        return res
+
+    if output_dir is None:
+        return solve(None)
+    target = Path(output_dir)
+    manifest = {"case_file": source, "case": _fingerprint(case.raw, source), "sampling": sampling,
+                "probe_components": list(components), "keys": keys, "points": points}
+    res, names = _in_directory(
+        target, manifest_name="study.json", manifest=manifest, identity=("case", "probe_components", "points"),
+        final=STUDY_FINAL, entries=STUDY_ENTRIES, overwrite=overwrite, wait=wait, solve=solve,
+        write=lambda r, out: _write_study_files(r, out, figures, source, case.raw))
+    res.files = {name: target / name for name in names}
+    return res
+
+
+def _short(v: Any) -> str:
+    return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
+def response_columns(rows: Sequence[dict[str, Any]], keys: Sequence[str]) -> list[str]:
+    """The responses of a study: numeric columns besides the keys and the counts, not constant."""
+    cols = list(dict.fromkeys(c for r in rows for c in r))
+    out = []
+    for c in cols:
+        vals = [r.get(c) for r in rows]
+        numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals)
+        if c not in keys and c not in _COUNTS and numeric and len(set(vals)) > 1:
+            out.append(c)
+    return out
+
+
+def _ranks(values: Sequence[float]) -> list[float]:
+    """Ranks 1..n, ties sharing their average rank."""
+    order = sorted(range(len(values)), key=lambda i: values[i])
+    ranks = [0.0] * len(values)
+    k = 0
+    while k < len(order):
+        j = k
+        while j + 1 < len(order) and values[order[j + 1]] == values[order[k]]:
+            j += 1
+        for m in range(k, j + 1):
+            ranks[order[m]] = (k + j) / 2 + 1
+        k = j + 1
+    return ranks
+
+
+def rank_correlation(x: Sequence[float], y: Sequence[float]) -> float | None:
+    """Spearman's rank correlation: the Pearson correlation of the ranks (None when either is constant)."""
+    rx, ry = _ranks(x), _ranks(y)
+    n = len(rx)
+    mx, my = sum(rx) / n, sum(ry) / n
+    sxy = sum((a - mx) * (b - my) for a, b in zip(rx, ry))
+    sxx, syy = sum((a - mx) ** 2 for a in rx), sum((b - my) ** 2 for b in ry)
+    return sxy / math.sqrt(sxx * syy) if sxx > 0 and syy > 0 else None
+
+
+def sensitivity(rows: Sequence[dict[str, Any]], keys: Sequence[str]) -> dict[str, dict[str, float | None]]:
+    """{response: {key: Spearman rank correlation}} over the points (numeric keys only)."""
+    numeric = [k for k in keys if all(isinstance(r.get(k), (int, float)) for r in rows)]
+    return {c: {k: rank_correlation([r[k] for r in rows], [r[c] for r in rows]) for k in numeric}
+            for c in response_columns(rows, keys)}
+
+
+def _write_study_files(res: StudyResult, out: Path, figures: bool, source: str | None,
+                       raw: dict[str, Any]) -> list[str]:
+    """study.csv, study.parquet, sensitivity.csv, the figures and report.html into ``out``; their names."""
+    names = ["study.csv"]
+    write_csv(out / "study.csv", res.rows)
+    system = res.summaries[0].get("unit_system", "SI") if res.summaries else "SI"
+    cols = list(dict.fromkeys(c for r in res.rows for c in r))
+    units = column_units(cols, res.keys, system)
+    if write_parquet(out / "study.parquet", res.rows, units) is not None:
+        names.append("study.parquet")
+    sens_rows = [{"response": c, **by_key} for c, by_key in res.sensitivity.items()]
+    if sens_rows:
+        write_csv(out / "sensitivity.csv", sens_rows)
+        names.append("sensitivity.csv")
+    pngs: dict[str, bytes] = {}
+    responses = response_columns(res.rows, res.keys)
+    if figures and responses:
+        from . import plots
+
+        kinds = {c: key_kind(c) if c in res.keys else column_kind(c) for c in cols}
+        numeric_keys = [k for k in res.keys if all(isinstance(r.get(k), (int, float)) for r in res.rows)]
+        if numeric_keys:
+            pngs["response.png"] = plots.png_bytes(plots.plot_response(res.rows, numeric_keys, responses, system,
+                                                                       kinds))
+        if res.sampling in RANDOM_SAMPLINGS:
+            pngs["histograms.png"] = plots.png_bytes(plots.plot_histograms(res.rows, responses, system, kinds))
+            if res.sensitivity and numeric_keys:
+                pngs["sensitivity.png"] = plots.png_bytes(plots.plot_sensitivity(res.sensitivity, numeric_keys))
+        for name, data in pngs.items():
+            atomic_write_bytes(out / name, data)
+        names += list(pngs)
+    from .report import write_study_report
+
+    about = {"case file": source, "sampling": res.sampling, "keys": ", ".join(res.keys), "points": len(res.rows),
+             "reused points": res.reused,
+             "units": ", ".join(f"{c} [{u}]" for c, u in units.items() if u)}
+    title = f"shellcontact study: {', '.join(res.keys)}"
+    write_study_report(out / "report.html", title, res.rows, pngs, about, raw)
+    return [*names, "report.html"]
+
+
+def study_table(res: StudyResult, most: int = 20) -> str:
+    """The study's rows as a console table with units (the first ``most`` rows; the CSV has them all)."""
+    text = _table(res.rows[:most], res.keys, res.summaries)
+    if len(res.rows) > most:
+        text += f"\n… {len(res.rows) - most} more rows in study.csv"
+    return text
 
 
 # -- convergence --------------------------------------------------------------------------------------
@@ -513,6 +825,8 @@ def convergence(
 
 def _convergence(case: Case, levels: int, out: Path | None, progress: Progress | None,
                  figures: bool, max_memory: float | str | None = None) -> ConvergenceResult:
+    from .analysis import solve
+
     r0 = case.mesh.refine
     rows, sums = [], []
     qname = None
@@ -520,7 +834,8 @@ def _convergence(case: Case, levels: int, out: Path | None, progress: Progress |
         if progress:
             progress(lv, levels, f"level {lv} (refine {r0 + lv})")
         c = case_from_dict(apply_overrides(case.raw, {"mesh.refine": r0 + lv}), source=case.source)
-        result, summary = _solve_summary(c, max_memory)
+        result = solve(c, max_memory=max_memory)
+        summary = result.summary()
         name, q = _quantity(summary)
         qname = qname or name
         if name != qname:
@@ -622,14 +937,17 @@ def convergence_table(res: ConvergenceResult) -> str:
     return text_table(head, [[r[k] for k in keys] for r in res.rows])
 
 
-def sweep_table(res: SweepResult) -> str:
-    """A fixed-width text table of a sweep (every column of its CSV, with units; the CSV keeps full precision)."""
+def _table(rows: Sequence[dict[str, Any]], keys: Sequence[str], summaries: Sequence[dict[str, Any]]) -> str:
+    """Every column of ``rows`` with its unit (the keys' from the schema, the others' from COLUMN_KINDS)."""
     from .units import bracket
 
-    system = res.summaries[0].get("unit_system", "SI") if res.summaries else "SI"
-    cols: list[str] = []
-    for r in res.rows:
-        cols += [c for c in r if c not in cols]
-    kinds = [key_kind(c) if c == res.param else column_kind(c) for c in cols]
+    system = summaries[0].get("unit_system", "SI") if summaries else "SI"
+    cols = list(dict.fromkeys(c for r in rows for c in r))
+    kinds = [key_kind(c) if c in keys else column_kind(c) for c in cols]
     head = [c + (bracket(k, system) if k else "") for c, k in zip(cols, kinds)]
-    return text_table(head, [[r.get(c) for c in cols] for r in res.rows])
+    return text_table(head, [[r.get(c) for c in cols] for r in rows])
+
+
+def sweep_table(res: SweepResult) -> str:
+    """A fixed-width text table of a sweep (every column of its CSV, with units; the CSV keeps full precision)."""
+    return _table(res.rows, [res.param], res.summaries)

@@ -1,0 +1,173 @@
+"""Where a study's tasks run: in this process one after another, or as Dask tasks.
+
+``open_engine(workers, address)`` gives an engine whose ``run(fn, tasks, done, describe)`` calls ``fn(*task)``
+for every task and ``done(k, value)`` in this process as each finishes (in any order; ``describe(k)`` names
+task k in messages):
+
+* ``workers == 0`` (and no address): ``Serial``, in this process, in order;
+* otherwise ``Dask``: on an existing cluster at ``address`` (``tcp://host:port``: ``scheduler_address`` reads
+  ``--scheduler`` or the environment variable ``SHELLCONTACT_SCHEDULER``), else on an embedded
+  ``LocalCluster`` of ``workers`` processes (None: one per core) with one thread each and one BLAS thread
+  (Dask's ``distributed.nanny.pre-spawn-environ``).
+
+A task lost with a killed worker is run again on another (Dask's ``distributed.scheduler.allowed-failures``).
+On an error or an interruption the tasks are cancelled and an embedded cluster's workers are killed at once
+(a graceful close would wait for the running tasks). Dask is imported only here, when an engine is opened.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import secrets
+import signal
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from .errors import InputError
+
+SCHEDULER_ENV = "SHELLCONTACT_SCHEDULER"
+ONE_THREAD = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS": 1}
+log = logging.getLogger("shellcontact")
+
+Done = Callable[[int, Any], None]
+
+
+def scheduler_address(scheduler: str | None) -> str | None:
+    """``--scheduler``, else ``SHELLCONTACT_SCHEDULER``, else None (an embedded cluster)."""
+    address = scheduler if scheduler is not None else os.environ.get(SCHEDULER_ENV) or None
+    if address is not None and "://" not in address:
+        where = "--scheduler" if scheduler is not None else SCHEDULER_ENV
+        raise InputError(where, f"expected a scheduler address such as tcp://host:8786, got {address!r}")
+    return address
+
+
+class Serial:
+    """Every task in this process, in order."""
+
+    workers = 1
+    description = "in this process"
+    dashboard: str | None = None
+
+    def run(self, fn: Callable[..., Any], tasks: Sequence[tuple], done: Done,
+            describe: Callable[[int], str] = lambda k: f"task {k}") -> None:
+        for k, args in enumerate(tasks):
+            done(k, fn(*args))
+
+    def close(self, abort: bool = False) -> None:
+        pass
+
+
+class Dask:
+    """A Dask client on an existing scheduler or on an embedded ``LocalCluster``."""
+
+    def __init__(self, workers: int | None, address: str | None, option: str = "--scheduler") -> None:
+        self.cluster = self.client = None
+        try:
+            self._start(workers, address, option)
+        except BaseException:  # e.g. Ctrl-C while the workers start: none is left behind
+            self.close(abort=True)
+            raise
+
+    def _start(self, workers: int | None, address: str | None, option: str) -> None:
+        import distributed
+
+        if address is None:
+            import dask
+
+            n = (os.cpu_count() or 1) if workers is None else workers
+            # one BLAS thread per worker process, set before it starts (whatever the user's Dask config says)
+            environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **ONE_THREAD}
+            with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+                # silence_logs: a failed task is raised here (its own error), not also logged by its worker
+                self.cluster = distributed.LocalCluster(
+                    n_workers=n, threads_per_worker=1, processes=True, silence_logs=logging.CRITICAL,
+                    dashboard_address=":0")  # a free port: several studies at once
+            self.client = distributed.Client(self.cluster)
+            self.description = f"an embedded Dask cluster of {n} worker process{'es' * (n != 1)}"
+        else:
+            try:
+                self.client = distributed.Client(address, timeout="20s")
+            except (OSError, TimeoutError) as exc:
+                raise InputError(option, f"cannot reach the Dask scheduler at {address}: {exc}") from None
+            self.description = f"the Dask cluster at {address}"
+        info = self.client.scheduler_info()
+        self.workers = max(1, len(info.get("workers", {})))
+        if address is not None:
+            self.description += f" ({self.workers} worker{'s' * (self.workers != 1)} now)"
+        self.dashboard = None
+        if "dashboard" in info.get("services", {}):
+            self.dashboard = self.client.dashboard_link
+            if address is None and not _has_dashboard():  # the scheduler serves its plain pages only
+                from urllib.parse import urlsplit
+
+                link = urlsplit(self.dashboard)
+                self.dashboard = (f"{link.scheme}://{link.netloc}/info/main/workers.html (the full dashboard "
+                                  "needs bokeh: pip install bokeh)")
+
+    def run(self, fn: Callable[..., Any], tasks: Sequence[tuple], done: Done,
+            describe: Callable[[int], str] = lambda k: f"task {k}") -> None:
+        from distributed import KilledWorker, as_completed
+
+        token = secrets.token_hex(4)
+        futures = [self.client.submit(fn, *args, key=f"shellcontact-{token}-{k}", pure=False)
+                   for k, args in enumerate(tasks)]
+        index = {f.key: k for k, f in enumerate(futures)}
+        try:
+            for fut in as_completed(futures):
+                try:
+                    value = fut.result()
+                except KilledWorker as exc:  # after distributed.scheduler.allowed-failures workers died with it
+                    raise InputError("--workers", f"{describe(index[fut.key])} ended every worker that ran it ({exc}); "
+                                     "most often a worker out of memory: give each more (fewer per machine) or "
+                                     "use a coarser mesh") from None
+                done(index[fut.key], value)
+        except BaseException:
+            self.client.cancel(futures, force=True)
+            raise
+
+    def close(self, abort: bool = False) -> None:
+        if abort and self.cluster is not None:
+            for nanny in list(self.cluster.workers.values()):  # kill the running tasks now
+                pid = getattr(getattr(nanny, "process", None), "pid", None)
+                if pid:
+                    try:
+                        os.kill(pid, signal.SIGKILL)
+                    except ProcessLookupError:
+                        pass
+        timeout = 2 if abort else 20
+        for part in (self.client, self.cluster):
+            if part is not None:
+                try:
+                    part.close(timeout=timeout)
+                except Exception as exc:  # noqa: BLE001 — closing after the work is done or abandoned
+                    log.debug("closing %s: %s", type(part).__name__, exc)
+
+
+def _has_dashboard() -> bool:
+    """The dashboard needs bokeh (``pip install bokeh``)."""
+    import importlib.util
+
+    return importlib.util.find_spec("bokeh") is not None
+
+
+class open_engine:  # noqa: N801 — used as a context manager, like open()
+    """``with open_engine(workers, address) as engine: engine.run(...)``; an exception aborts the engine.
+    ``option``: what gave the address (named when the scheduler cannot be reached)."""
+
+    def __init__(self, workers: int | None, address: str | None, option: str = "--scheduler") -> None:
+        self.workers = workers
+        self.address = address
+        self.option = option
+        self.engine: Serial | Dask | None = None
+
+    def __enter__(self) -> Serial | Dask:
+        if self.workers == 0 and self.address is None:
+            self.engine = Serial()
+        else:
+            self.engine = Dask(self.workers, self.address, self.option)
+        return self.engine
+
+    def __exit__(self, kind, exc, tb) -> None:
+        if self.engine is not None:
+            self.engine.close(abort=kind is not None)
