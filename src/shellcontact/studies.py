@@ -20,7 +20,7 @@ import math
 import numbers
 import os
 import shutil
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Sequence, Sized
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from pathlib import Path
@@ -484,6 +484,8 @@ def sweep(
     if not isinstance(param, str):
         raise TypeError(f"sweep(): param must be a dotted case-file key such as 'punch.0.indentation', got "
                         f"{type(param).__name__}")
+    if isinstance(values, Sized):  # a range(10**8) is refused before it becomes a list
+        check_steps(len(values), max_memory)
     values = expect_numbers(values, "sweep", "values")
     expect_path(output_dir, "sweep", "output_dir", optional=True)
     jobs = expect_integer(jobs, "sweep", "jobs", 1)
