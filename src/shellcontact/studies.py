@@ -222,6 +222,10 @@ def _solve_step(raw: dict, source: str | None, param: str, index: int, value: An
     uninterrupted one would.
     """
     _, summary = _solve_summary(case if case is not None else case_from_dict(raw, source=source), max_memory)
+    return _record_step(param, index, value, steps, fp, summary)
+
+
+def _record_step(param: str, index: int, value: Any, steps: str | None, fp: str, summary: dict[str, Any]):
     row = _step_row(param, value, summary)
     if steps is not None:
         write_json(
@@ -311,6 +315,12 @@ def _run_steps(
             _stop(pool)
             raise
         pool.shutdown()
+    elif split_path(param)[0] == "punch":  # one mesh and factorisation per family (curves), results as solve's
+        from .curves import solve_families
+
+        for k, result in solve_families([steps_in[i][1] for i in todo], max_memory=max_memory):
+            i = todo[k]
+            finished(*_record_step(param, i, vals[i], where, fps[i], result.summary()))
     else:
         for i in todo:
             finished(*_solve_step(steps_in[i][0], source, param, i, vals[i], where, fps[i], steps_in[i][1], max_memory))
