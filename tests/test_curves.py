@@ -146,3 +146,16 @@ def test_cases_of_different_families_are_refused():
         solve_family(mixed)
     assert e.value.field == "cases" and "case 1" in e.value.message
     assert list(solve_family([])) == []
+
+
+def test_a_punch_sweep_is_the_separate_solves_bit_for_bit():
+    """sweep over a punch key solves its steps as one family (no warm start): each CSV row is the lone
+    solve's, digit for digit, as a resumed sweep needs."""
+    from shellcontact.studies import summary_row, sweep
+
+    raw = panel({"force": 1e4})
+    values = [2e4, 6e4, 1.2e5]
+    res = sweep(case_from_dict(raw), "punch.0.force", values, figures=False)
+    for v, row in zip(values, res.rows):
+        alone = solve(case_from_dict(apply_overrides(raw, {"punch.0.force": v})))
+        assert row == {"punch.0.force": v, **summary_row(alone.summary())}
