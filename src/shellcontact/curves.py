@@ -16,9 +16,13 @@ Schur blocks (MODEL.md §8), and its Result is that of ``analysis.solve`` of its
   factorisation of A alone, for every point. Above it the exact methods factorise A bordered by the rows
   predicted to touch (``solvers.screening``); that factorisation is shared by the points whose border
   rows are equal — a force-controlled curve (the punch sits where it first touches, whatever the force:
-  B, G and the Schur complement are the same at every point, only the prescribed force changes) — and
-  rebuilt when they change: on an indentation curve of a curved punch B changes with the indentation
-  (row i is ∇Z(M_i)·U(M_i), and ∇Z at the contact points turns as the punch moves).
+  B, G and the Schur complement are the same at every point, only the prescribed force changes). On an
+  indentation curve of a curved punch B changes with the indentation (row i is ∇Z(M_i)·U(M_i), and ∇Z at
+  the contact points turns as the punch moves), and with the punch's position: with a warm start one
+  factorisation then still serves every point, bordered by the Cartesian displacement rows of all points'
+  screened contact points (``Cartesian``: B = W K, so S = W (K A⁻¹ Kᵀ) Wᵀ; three border rows per point,
+  equal to the points' own Schur blocks to round-off); without one (bit-identical Results) each new
+  border is factorised again.
 * **Warm start** (``warm_start=True``): each point starts from its predecessor's active set (the same
   rows) or from the rows its predecessor's displacements close (other rows), and the Schur columns
   solved for rows beyond the screened ones are kept for the next point. The final result is the KKT
@@ -36,14 +40,16 @@ import dataclasses
 import hashlib
 import os
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .analysis import Discretization, Factorizer, Result, Timer, discretize, solve_discretized
 from .arguments import expect_callable, expect_choice
 from .case import Case, expect_case
-from .contact import contact_operator
+from .contact import ContactOperator, contact_operator
 from .errors import InputError
 from .linalg import BACKENDS, Factorization, factorize
 from .linalg.sparse import same_entries
@@ -89,18 +95,28 @@ def _key(case: Case, punches: Sequence[Punch]) -> str:
 
 class SharedFactorizer(Factorizer):
     """One factorisation of the reduced stiffness for every point of a family (see the module docstring):
-    A alone, or A bordered by the screened rows, kept while the points' border rows stay equal."""
+    A alone, or A bordered by the screened rows, kept while the points' border rows stay equal; with
+    ``cartesian`` (set by ``solve_family`` with a warm start) points whose rows differ use one factorisation
+    bordered by the Cartesian displacement rows of all points' screened contact points (``Cartesian``)."""
 
     def __init__(self, keep_columns: bool) -> None:
         self.keep_columns = keep_columns
         self.plain: Factorization | None = None
         self.bordered: tuple[sp.csr_matrix, Factorization] | None = None
-        self.factorizations = 0
+        self.built = 0
+        #: the current point's contact operator and the family's Cartesian border (``solve_family`` sets them)
+        self.operator: ContactOperator | None = None
+        self.cartesian: Cartesian | None = None
+
+    @property
+    def factorizations(self) -> int:
+        """How many factorisations the family has built so far."""
+        return self.built + (self.cartesian.factorizations if self.cartesian is not None else 0)
 
     def linear(self, Ar: sp.csr_matrix, backend: str) -> Factorization:
         if self.plain is None:
             self.plain = factorize(Ar, backend)
-            self.factorizations += 1
+            self.built += 1
         return self.plain
 
     def contact(self, qp: ContactQP, groups: np.ndarray, initial_active: np.ndarray | None,
@@ -117,15 +133,136 @@ class SharedFactorizer(Factorizer):
         if self.bordered is not None and same_entries(self.bordered[0], border):
             fac = self.bordered[1]
         else:
+            if self.cartesian is not None and self.operator is not None:
+                shared = self.cartesian.schur(qp, border, self.operator, rows, opts, min_unknowns)
+                if shared is not None:
+                    return shared, rows
             self.bordered = None  # the previous border's factors go before the new ones are built
             fac = factorize_contact(qp.A, border, opts.backend, min_unknowns=min_unknowns)
-            self.factorizations += 1
+            self.built += 1
             self.bordered = (border, fac)
         if fac.schur is None:  # T not positive definite: A's factors alone, no screening (as solve does)
             return fac, None
         if not self.keep_columns:  # the columns a previous point solved for: a cold start has none
             fac.schur.extra = None
         return fac, rows
+
+
+def _same_borders(operators: list[ContactOperator | None]) -> bool:
+    """Whether every point screens the same rows B[initial_rows] (a force curve: one border serves all)."""
+    ops = [op for op in operators if op is not None]
+    first = ops[0].B[initial_rows(ops[0].G, ops[0].punch)] if ops else None
+    return all(same_entries(op.B[initial_rows(op.G, op.punch)], first) for op in ops[1:])
+
+
+def _row_key(op: ContactOperator, i: int) -> tuple:
+    """The contact point of row i: its vertex or edge and its surface (equal keys, equal Cartesian rows)."""
+    return int(op.vertex[i]), int(op.facet[i]), float(op.zeta[i])
+
+
+class Cartesian:
+    """One factorisation for points whose contact rows differ (an indentation curve, punch positions).
+
+    Row i of B is ∇Z(M_i)·U(M_i) = Σ_c ∂_cZ(M_i) K_c,i U with K_c the Cartesian displacement components at
+    the contact point M_i (``contact.contact_operator`` with the punch replaced by the plane of normal e_c).
+    So for any point, B_r = W K_R over the rows R of every point's screened contact points, and
+    S_rr = B_r A⁻¹ B_rᵀ = W (K_R A⁻¹ K_Rᵀ) Wᵀ: one factorisation of A bordered by K_R (3 rows per contact
+    point) gives X = K_R A⁻¹ K_Rᵀ, and every point's dense Schur block follows by two sparse products.
+    S differs from B A⁻¹ Bᵀ by round-off (~1e-10 relative, as the dense Schur complement of one border),
+    which ``schur.Workspace.finish_exact`` corrects on the true gaps."""
+
+    def __init__(self, space, reduction, operators: list[ContactOperator], points: str) -> None:
+        self.space, self.reduction, self.points = space, reduction, points
+        self.operators = operators
+        self.factorizations = 0
+        self._ready = False
+        self._keys: dict[tuple, int] = {}
+        self._X: np.ndarray | None = None
+        self._fac: Factorization | None = None
+
+    def _rows(self, op: ContactOperator) -> list[sp.csr_matrix]:
+        """K_x, K_y, K_z of ``op``'s rows (same order)."""
+        out = []
+        for c in range(3):
+            e = np.eye(3)[c]
+
+            def plane(X: np.ndarray, c: int = c, e: np.ndarray = e) -> tuple[np.ndarray, np.ndarray]:
+                return X[c], np.repeat(e[:, None], X.shape[1], axis=1)
+
+            planes = [dataclasses.replace(p, body=plane, inverted=False, offset=np.zeros(3), mode="fixed")
+                      for p in op.punches]
+            out.append(contact_operator(self.space, planes, self.points).B)
+        return out
+
+    def _build(self, qp: ContactQP, opts: SolverOptions, min_unknowns: int) -> None:
+        self._ready = True
+        blocks: list[list[sp.csr_matrix]] = [[], [], []]
+        cache: dict[tuple, list[sp.csr_matrix]] = {}
+        for op in self.operators:
+            if op is None:
+                continue
+            zones = tuple((p.zone, p.side) for p in op.punches)
+            if zones not in cache:
+                cache[zones] = self._rows(op)
+            K = cache[zones]
+            for i in initial_rows(op.G, op.punch):
+                key = _row_key(op, int(i))
+                if key not in self._keys:
+                    self._keys[key] = len(self._keys)
+                    for c in range(3):
+                        blocks[c].append(K[c][int(i)])
+        M = len(self._keys)
+        if not borders(qp.n, 3 * M, opts.backend, min_unknowns=min_unknowns):
+            return
+        R = sp.vstack([sp.vstack(b) for b in blocks]).tocsr() @ self.reduction.P
+        fac = factorize_contact(qp.A, R, opts.backend, min_unknowns=min_unknowns)
+        self.factorizations += 1
+        if fac.schur is None:
+            return
+        sch = fac.schur
+        X = sla.cho_solve(sch.chol, np.eye(3 * M), check_finite=False)
+        X[np.diag_indices_from(X)] -= 1.0 / sch.rho
+        self._X, self._fac = 0.5 * (X + X.T), fac
+
+    def schur(self, qp: ContactQP, border: sp.csr_matrix, op: ContactOperator, rows: np.ndarray,
+              opts: SolverOptions, min_unknowns: int) -> Factorization | None:
+        """The family's factorisation carrying the dense Schur block of ``border`` = B[rows] (None: the
+        Cartesian border does not serve this point)."""
+        if not self._ready:
+            self._build(qp, opts, min_unknowns)
+        if self._X is None or self._fac is None:
+            return None
+        try:
+            idx = np.array([self._keys[_row_key(op, int(i))] for i in rows], dtype=np.int64)
+        except KeyError:
+            return None
+        M = len(self._keys)
+        r = np.repeat(np.arange(rows.size), 3)
+        cols = (idx[:, None] + M * np.arange(3)[None, :]).ravel()
+        W = sp.csr_matrix((op.grad[:, rows].T.ravel(), (r, cols)), shape=(rows.size, 3 * M))
+        S = np.asarray((W @ np.asarray(W @ self._X).T).T)
+        self._fac.schur = ProjectedSchur(border, 0.5 * (S + S.T))
+        return self._fac
+
+
+@dataclass
+class ProjectedSchur:
+    """S = B A⁻¹ Bᵀ of one point's screened rows B, from the family's ``Cartesian`` X: what
+    ``schur.Workspace`` reads of a ``linalg.SchurComplement`` (m, matches, columns, extra)."""
+
+    B: sp.csr_matrix
+    S: np.ndarray
+    extra: tuple[sp.csr_matrix, np.ndarray] | None = field(default=None, repr=False)
+
+    @property
+    def m(self) -> int:
+        return self.B.shape[0]
+
+    def matches(self, B: sp.spmatrix) -> bool:
+        return same_entries(B, self.B)
+
+    def columns(self, cols: np.ndarray) -> np.ndarray:
+        return self.S[:, np.asarray(cols, dtype=np.int64)]
 
 
 def solve_family(cases: Sequence[Case], *, method: str | None = None, backend: str | None = None,
@@ -177,11 +314,16 @@ def _solve_family(cases: list[Case], placed: list[list[Punch]], method: str | No
             if base is None:  # the family's mesh, space, stiffness, loads and supports
                 d = base = discretize(case, opts.contact_points, timer, punches)
                 base.space.memo = {}  # every point's post-processing evaluates the same points
-            else:  # only this point's contact rows
-                with timer.stage("assembly"):
-                    op = contact_operator(base.space, punches, opts.contact_points) if punches else None
+                with timer.stage("assembly"):  # every point's contact rows
+                    operators = [d.operator] + [
+                        contact_operator(base.space, p, opts.contact_points) if p else None for p in placed[1:]]
+                if warm_start and not _same_borders(operators):  # equal to round-off: one border for differing rows
+                    factorizer.cartesian = Cartesian(base.space, base.reduction, operators, opts.contact_points)
+            else:
+                op = operators[i]
                 d = dataclasses.replace(base, punches=punches, operator=op,
                                         Br=None if op is None else op.B @ base.reduction.P)
+            factorizer.operator = d.operator
             step = None if progress is None else (lambda it, res, i=i: progress(i, it, res))
             result = solve_discretized(case, d, opts, timer, warm_start=previous if warm_start else None,
                                        progress=step, max_memory=max_memory, factorizer=factorizer)
