@@ -8,7 +8,7 @@ Each script prints its own table (peer, ratio, machine). The last line printed h
 
     {"targets": {name: {"value": ..., "goal": ..., "unit": ..., "peer": ...}, ...}}
 
-for assembly_speedup, contact_vs_linear, speedup_vs_qp_peer, seconds_1M_dofs, peak_gb_1M_dofs,
+for assembly_speedup, contact_vs_linear, curve_vs_linear, speedup_vs_qp_peer, seconds_1M_dofs, peak_gb_1M_dofs,
 force_digits_1M_dofs, cli_help_seconds and import_seconds (start-up, benchmarks/startup.py). A target
 that this run does not measure has value null and a "reason".
 """
@@ -27,11 +27,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import common  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
-NAMES = ("assembly_speedup", "contact_vs_linear", "speedup_vs_qp_peer", "seconds_1M_dofs", "peak_gb_1M_dofs",
-         "force_digits_1M_dofs", "cli_help_seconds", "import_seconds")
+NAMES = ("assembly_speedup", "contact_vs_linear", "curve_vs_linear", "speedup_vs_qp_peer", "seconds_1M_dofs",
+         "peak_gb_1M_dofs", "force_digits_1M_dofs", "cli_help_seconds", "import_seconds")
 GOALS = {
     "assembly_speedup": (30.0, "x over scikit-fem (basis + assembly)"),
     "contact_vs_linear": (1.5, "contact solve seconds / (factorise + solve) seconds"),
+    "curve_vs_linear": (3.0, "20-point curve seconds / (factorise + solve) seconds"),
     "speedup_vs_qp_peer": (20.0, "x over the fastest generic QP solver"),
     "seconds_1M_dofs": (60.0, "s, 1M-dof contact solve end to end"),
     "peak_gb_1M_dofs": (16.0, "GB peak memory, 1M-dof contact solve"),
@@ -41,6 +42,7 @@ GOALS = {
 }
 REASONS = {
     "contact_vs_linear": "benchmarks/contact_vs_linear.py did not run or failed",
+    "curve_vs_linear": "benchmarks/curve.py did not run or failed",
     "speedup_vs_qp_peer": "benchmarks/qp_peers.py did not run or failed (peers: pip install -e '.[bench]')",
     "seconds_1M_dofs": "benchmarks/scale_1m.py did not run or failed",
     "peak_gb_1M_dofs": "benchmarks/scale_1m.py did not run or failed",
@@ -85,7 +87,7 @@ def main(argv=None) -> dict:
         targets["assembly_speedup"]["reason"] = "benchmarks/assembly.py failed"
     run_script("linear_solve", quick)
     run_script("scaling", quick)
-    for name in ("contact_vs_linear", "qp_peers", "scale_1m", "force_digits"):
+    for name in ("contact_vs_linear", "curve", "qp_peers", "scale_1m", "force_digits"):
         if (HERE / f"{name}.py").exists():
             # the peers' comparisons run on one thread; the 1M-dof goals are for the whole machine
             extra = ["--threads", str(os.cpu_count() or 1)] if name in ("scale_1m", "force_digits") else []

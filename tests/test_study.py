@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
+import shellcontact.curves as curves
 import shellcontact.studies as studies
 from shellcontact.errors import InputError
 from shellcontact.sampling import grid, latin_hypercube, parse_spec
@@ -115,8 +116,8 @@ def test_interrupted_study_resumes_without_recomputing(tmp_path: Path, monkeypat
     assert len(records) >= 2 and not (tmp_path / "cut" / "study.csv").exists()
     stamps = {p.name: p.stat().st_mtime_ns for p in records}
     solved = []
-    group = studies._solve_group
-    monkeypatch.setattr(studies, "_solve_group", lambda cases, *a: solved.extend(cases) or group(cases, *a))
+    families = curves.solve_families
+    monkeypatch.setattr(curves, "solve_families", lambda cases, **kw: solved.extend(cases) or families(cases, **kw))
     res = study(case, points, tmp_path / "cut", workers=0, figures=False)
     assert res.reused == len(records) and len(solved) == len(points) - len(records)
     assert {p.name: p.stat().st_mtime_ns for p in records} == stamps

@@ -31,7 +31,7 @@ from .arguments import expect_callable, expect_choice
 from .case import Case, expect_case
 from .contact import ContactOperator, contact_operator, contact_zone, penetration_outside
 from .errors import InputError, SolverError
-from .linalg import BACKENDS, factorize
+from .linalg import BACKENDS, Factorization, factorize
 from .loads import load_vector
 from .mesh import ShellMesh, build_mesh
 from .options import SolverOptions
@@ -447,11 +447,38 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
         punches = place_punches(case.punches, case.shell)
         check_size(case, punches, max_memory, opts.method, opts.backend)
     d = discretize(case, opts.contact_points, timer, punches)
+    return solve_discretized(case, d, opts, timer, warm_start=warm_start, progress=progress, max_memory=max_memory)
+
+
+class Factorizer:
+    """How ``solve_discretized`` factorises: afresh for every case (``solve``). A subclass may lend one
+    factorisation to several cases on the same mesh (``curves.SharedFactorizer``)."""
+
+    def linear(self, Ar: sp.csr_matrix, backend: str) -> Factorization:
+        return factorize(Ar, backend)
+
+    def contact(self, qp: ContactQP, groups: np.ndarray, initial_active: np.ndarray | None,
+                opts: SolverOptions) -> tuple[Factorization, np.ndarray | None]:
+        """The factorisation of the reduced stiffness for ``opts.method`` and the screened rows (None: the
+        whole QP directly): for the exact methods A bordered by the rows predicted to touch
+        (``solvers.screening``), else A alone."""
+        if METHODS[opts.method].exact and opts.substructure is not False:
+            return factorize_screened(qp, groups, initial_active, opts.backend,
+                                      0 if opts.substructure is True else MIN_UNKNOWNS)
+        return factorize(qp.A, opts.backend), None
+
+
+def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer: Timer, *,
+                      warm_start: Result | None = None, progress: Callable[[int, dict], None] | None = None,
+                      max_memory: float | str | None = None, factorizer: Factorizer | None = None) -> Result:
+    """``solve`` from the discretisation ``d`` of ``case`` on: factorisation (by ``factorizer``), the linear
+    or contact solve, post-processing."""
+    factorizer = factorizer or Factorizer()
     space, A, F, red, op, punches = d.space, d.A, d.F, d.reduction, d.operator, d.punches
     info: dict[str, Any] = {"unknowns": int(d.Ar.shape[0])}
     if op is None:
         with timer.stage("factorization"):
-            fac = factorize(d.Ar, opts.backend)
+            fac = factorizer.linear(d.Ar, opts.backend)
         info["backend"] = fac.backend
         _check_finite("the load vector F", d.Fr)
         with timer.stage("solve"):
@@ -469,7 +496,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
         info["nested_iterations"] = [start.info.get("nested_iterations", []), start.contact.solution.iterations]
     initial_U_r = initial_active = None
     if start is not None:
-        U0 = start.solution.prolongate(space)
+        U0 = start.solution.U if start.solution.space is space else start.solution.prolongate(space)
         initial_U_r = U0[red.free]
         if _same_rows(start, op):  # e.g. the previous step of a sweep: its active set is the best guess
             initial_active = start.contact.active
@@ -479,13 +506,8 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     if initial_active is None and initial_U_r is not None and exact:
         initial_active = qp.gap(initial_U_r) <= 0.0
     # exact methods: the dense Schur complement of the rows predicted to touch (solvers.screening)
-    screen = None
     with timer.stage("factorization"):
-        if exact and opts.substructure is not False:
-            fac, screen = factorize_screened(qp, op.punch, initial_active, opts.backend,
-                                             0 if opts.substructure is True else MIN_UNKNOWNS)
-        else:
-            fac = factorize(d.Ar, opts.backend)
+        fac, screen = factorizer.contact(qp, op.punch, initial_active, opts)
     info["backend"] = fac.backend
     eps = opts.penalty if opts.penalty is not None else default_penalty(case)
     info["tolerance"] = opts.tolerance

@@ -129,7 +129,7 @@ class ShellSolution:
         e = np.eye(3)
         modes = [rigid_motion(self.shell, e[k], np.zeros(3)) for k in range(3)]
         modes += [rigid_motion(self.shell, np.zeros(3), e[k]) for k in range(3)]
-        return np.array([self.space.interpolate(m) for m in modes])
+        return self.space.memoized(("rigid_modes",), lambda: np.array([self.space.interpolate(m) for m in modes]))
 
     def resultant(self, forces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Global force and moment about the origin of generalised nodal forces: their work on the rigid

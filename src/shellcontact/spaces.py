@@ -8,7 +8,10 @@ respect to the arc-length chart (x, s).
 
 from __future__ import annotations
 
+import hashlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -22,6 +25,8 @@ from .mesh import ShellMesh
 
 W_KINDS = ("w", "w_x", "w_s", "w_xx", "w_xs", "w_ss")
 QUANTITIES = ("u", "u_x", "u_s", "v", "v_x", "v_s", "w", "w_x", "w_s", "w_xx", "w_xs", "w_ss")
+#: evaluations a memo keeps (the oldest goes first)
+MEMO_ENTRIES = 16
 
 
 @dataclass
@@ -31,6 +36,9 @@ class ShellSpace:
     mesh: ShellMesh
     _argyris: ArgyrisBasis | None = field(default=None, repr=False)
     _finder: object = field(default=None, repr=False)
+    #: memoised basis evaluations and point operators (None: off). ``curves.solve_family`` turns it on for
+    #: the space its points share: their post-processing evaluates the same points again and again
+    memo: dict | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         m = self.mesh.mesh
@@ -98,6 +106,16 @@ class ShellSpace:
         rx, ry = x - p0[0], s - p0[1]
         return np.array([(d2[1] * rx - d2[0] * ry) / det, (-d1[1] * rx + d1[0] * ry) / det])
 
+    def memoized(self, key: tuple, compute: Callable[[], Any]) -> Any:
+        """``compute()``, kept in ``memo`` under ``key`` when the memo is on (its values are read only)."""
+        if self.memo is None:
+            return compute()
+        if key not in self.memo:
+            while len(self.memo) >= MEMO_ENTRIES:
+                self.memo.pop(next(iter(self.memo)))
+            self.memo[key] = compute()
+        return self.memo[key]
+
     def element_basis(self, elements: np.ndarray, X: np.ndarray) -> dict[str, np.ndarray]:
         """All 33 element basis functions of V_h at reference points.
 
@@ -106,6 +124,10 @@ class ShellSpace:
         6–11 the v-functions, 12–32 the w-functions (zero where a field is absent).
         """
         elements = np.asarray(elements, dtype=int)
+        X = np.asarray(X, dtype=float)
+        return self.memoized(("basis", _digest(elements), _digest(X)), lambda: self._element_basis(elements, X))
+
+    def _element_basis(self, elements: np.ndarray, X: np.ndarray) -> dict[str, np.ndarray]:
         n = elements.size
         X_given = X
         X = np.broadcast_to(X[:, None, :], (2, n, X.shape[-1])) if X.ndim == 2 else X
@@ -188,6 +210,11 @@ class ShellSpace:
     def point_operators(self, x, s, quantities=QUANTITIES) -> dict[str, sp.csr_matrix]:
         """Sparse matrices E_q (npoints × ndofs) with E_q U = quantity q at the points."""
         x, s = np.atleast_1d(np.asarray(x, float)), np.atleast_1d(np.asarray(s, float))
+        quantities = tuple(quantities)
+        return self.memoized(("points", _digest(x), _digest(s), quantities),
+                             lambda: self._point_operators(x, s, quantities))
+
+    def _point_operators(self, x: np.ndarray, s: np.ndarray, quantities: tuple[str, ...]) -> dict[str, sp.csr_matrix]:
         e = self.locate(x, s)
         X = self.physical_to_reference(e, x, s)[:, :, None]  # (2, n, 1)
         basis = self.element_basis(e, X)
@@ -225,3 +252,9 @@ class ShellSpace:
             self.locate(x, s)
         except InputError as exc:
             raise InputError(name, exc.message) from None
+
+
+def _digest(a: np.ndarray) -> tuple:
+    """A memo key of an array: its shape, type and a hash of its bytes."""
+    a = np.ascontiguousarray(a)
+    return a.shape, a.dtype.str, hashlib.sha1(a.tobytes()).hexdigest()

@@ -165,12 +165,17 @@ def _load_record(work: Path, index: int, fingerprint: str, keep: Sequence[str] =
 def _solve_group(cases: Sequence[Case], max_memory: float | str | None = None) -> list[Any]:
     """The results (``analysis.Result``) of cases that differ at most in their [punch] tables, in order.
 
-    Each case is solved alone, from its own data (no warm start), so a point's numbers do not depend on
-    which points share its task: the one place where such a family could share the shell's factorisation.
+    Those of one family (``curves.family_key``: the same mesh too) share the mesh, the assembly and, where
+    their contact rows allow, the factorisation (``curves.solve_families``); without a warm start each
+    result is bit for bit that of its case solved alone, so a point's numbers do not depend on which
+    points share its task.
     """
-    from .analysis import solve
+    from .curves import solve_families
 
-    return [solve(c, max_memory=max_memory) for c in cases]
+    results: list[Any] = [None] * len(cases)
+    for k, result in solve_families(cases, max_memory=max_memory):
+        results[k] = result
+    return results
 
 
 def _field_bytes(result: Any, keep: Sequence[str]) -> dict[str, bytes]:
@@ -192,12 +197,10 @@ def _field_bytes(result: Any, keep: Sequence[str]) -> dict[str, bytes]:
 
 
 def _solve_points(raws: Sequence[dict], source: str | None, keep: Sequence[str],
-                  max_memory: float | str | None = None,
-                  cases: Sequence[Case] | None = None) -> list[tuple[dict[str, Any], dict[str, bytes]]]:
-    """One task: the summaries (and kept files) of a family of points (in a worker the cases are validated
+                  max_memory: float | str | None = None) -> list[tuple[dict[str, Any], dict[str, bytes]]]:
+    """One Dask task: the summaries (and kept files) of a family of points (the worker validates the cases
     again from ``raws``)."""
-    if cases is None:
-        cases = [case_from_dict(raw, source=source) for raw in raws]
+    cases = [case_from_dict(raw, source=source) for raw in raws]
     return [(r.summary(), _field_bytes(r, keep)) for r in _solve_group(cases, max_memory)]
 
 
@@ -291,12 +294,14 @@ def _run_points(
         if announce and workers != 0:
             dashboard = f"; dashboard {engine.dashboard}" if engine.dashboard else ""
             announce(f"solving {len(todo)} points on {engine.description}{dashboard}")
-        if workers == 0 and address is None:
-            tasks = [[i] for i in todo]
-            args = [([points[i][0]], source, keep, max_memory, [points[i][1]]) for i in todo]
-        else:
-            tasks = _tasks([raw for raw, _ in points], todo, engine.workers)
-            args = [([points[i][0] for i in t], source, keep, max_memory) for t in tasks]
+        if workers == 0 and address is None:  # in order, each point recorded as it is solved
+            from .curves import solve_families
+
+            for k, result in solve_families([points[i][1] for i in todo], max_memory=max_memory):
+                finished(todo[k], result.summary(), _field_bytes(result, keep))
+            return rows, sums, reused  # type: ignore[return-value]
+        tasks = _tasks([raw for raw, _ in points], todo, engine.workers)
+        args = [([points[i][0] for i in t], source, keep, max_memory) for t in tasks]
 
         def task_done(k: int, value: list[tuple[dict[str, Any], dict[str, bytes]]]) -> None:
             for i, (summary, files) in zip(tasks[k], value):

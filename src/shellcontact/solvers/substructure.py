@@ -48,6 +48,11 @@ def factorize_contact(A: sp.spmatrix, B: sp.spmatrix, backend: str = "auto", max
     m, n = B.shape[0], A.shape[0]
     if B.shape[1] != n:
         raise InputError("B", f"must have {n} columns, got {B.shape[1]}")
-    if not BACKENDS[name].supports_schur or m == 0 or m > max_rows or n < min_unknowns:
+    if not borders(n, m, name, max_rows, min_unknowns):
         return factorize(A, name)
     return factorize(A, name, border=B)
+
+
+def borders(n: int, m: int, backend: str = "auto", max_rows: int = MAX_ROWS, min_unknowns: int = MIN_UNKNOWNS) -> bool:
+    """Whether ``factorize_contact`` borders A (n unknowns) by m rows, or factorises A alone."""
+    return BACKENDS[resolve_backend(backend)].supports_schur and 0 < m <= max_rows and n >= min_unknowns

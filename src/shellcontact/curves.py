@@ -1,0 +1,352 @@
+"""Curves at the price of one solve: cases that differ only in their punches share one discretisation.
+
+A *family* is a set of cases with the same shell, material, supports, loads, solver options and the
+same mesh; only their ``[[punch]]`` tables (indentation, force, position, shape) and probes differ
+(``family_key``). ``solve_family`` meshes and assembles the family once and factorises the reduced
+stiffness once, and solves every point on it; each point gets its own contact rows B, gaps G and
+Schur blocks (MODEL.md §8), and its Result is that of ``analysis.solve`` of its case alone:
+
+* **The mesh must be the same.** The mesh is fitted to the punches (zone edges and first-contact
+  lines are node lines, ``punches.fitted_lines``), so the key contains the node lines of the case's
+  mesh: moving a sphere along x moves its first-contact line and makes another family, while an
+  indentation or force change (same first contact, an explicit or unchanged zone), or a position change
+  on a mesh read from a file, stays in one. A mesh fitted to all points would change every point's
+  result, so families are never merged that way.
+* **What is shared.** Below ``substructure.MIN_UNKNOWNS`` unknowns (and for the penalty method) the
+  factorisation of A alone, for every point. Above it the exact methods factorise A bordered by the rows
+  predicted to touch (``solvers.screening``); that factorisation is shared by the points whose border
+  rows are equal — a force-controlled curve (the punch sits where it first touches, whatever the force:
+  B, G and the Schur complement are the same at every point, only the prescribed force changes). On an
+  indentation curve of a curved punch B changes with the indentation (row i is ∇Z(M_i)·U(M_i), and ∇Z at
+  the contact points turns as the punch moves), and with the punch's position: with a warm start one
+  factorisation then still serves every point, bordered by the Cartesian displacement rows of all points'
+  screened contact points (``Cartesian``: B = W K, so S = W (K A⁻¹ Kᵀ) Wᵀ; three border rows per point,
+  equal to the points' own Schur blocks to round-off); without one (bit-identical Results) each new
+  border is factorised again.
+* **Warm start** (``warm_start=True``): each point starts from its predecessor's active set (the same
+  rows) or from the rows its predecessor's displacements close (other rows), and the Schur columns
+  solved for rows beyond the screened ones are kept for the next point. The final result is the KKT
+  point at ``[solver] tolerance`` of a strictly convex QP, which is unique: it does not depend on the
+  start beyond the tolerance and round-off (the tests hold fields and forces to 1e-8 of their size).
+  ``warm_start=False``: every point runs exactly as ``analysis.solve`` of its case alone, on a
+  factorisation of the same matrix, so its Result is bit-identical to it (for a backend whose
+  factorisation and solves are deterministic: the single-threaded ones here are) and independent of the
+  other points — what a resumable study needs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import os
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from .analysis import Discretization, Factorizer, Result, Timer, discretize, solve_discretized
+from .arguments import expect_callable, expect_choice
+from .case import Case, expect_case
+from .contact import ContactOperator, contact_operator
+from .errors import InputError
+from .linalg import BACKENDS, Factorization, factorize
+from .linalg.sparse import same_entries
+from .mesh import node_lines
+from .options import SolverOptions
+from .punches import Punch, place_punches
+from .sizing import check_size, mesh_lines
+from .solvers import ContactQP
+from .solvers.methods import METHODS
+from .solvers.screening import initial_rows
+from .solvers.substructure import MIN_UNKNOWNS, borders, factorize_contact
+
+#: (point index, solver iteration, numeric fields of the solver's record)
+FamilyProgress = Callable[[int, int, dict], None]
+
+
+def family_key(case: Case) -> str:
+    """A digest equal for cases that may share one factorisation: the same shell, material, supports,
+    loads, solver options and mesh (its node lines, which follow the placed punches). Probes and
+    ``[units]`` are not part of it (each Result keeps its own case). A shell or load given by a Python
+    function enters by its identity, so such keys agree only within one process."""
+    expect_case(case, "family_key")
+    return _key(case, place_punches(case.punches, case.shell))
+
+
+def _key(case: Case, punches: Sequence[Punch]) -> str:
+    h = hashlib.sha256()
+    h.update(repr((case.shell, case.supports, case.mesh, case.loads, case.solver)).encode())
+    if case.mesh.file:  # the mesh is the file's: no fitted lines
+        path = os.path.abspath(case.mesh.file)
+        h.update(path.encode())
+        try:
+            with open(path, "rb") as f:
+                h.update(hashlib.sha256(f.read()).digest())
+        except OSError:
+            pass  # the solve names the unreadable file
+    else:
+        for nodes in node_lines(case.shell, case.mesh, *mesh_lines(case, punches)):
+            h.update(np.ascontiguousarray(nodes, dtype=float).tobytes())
+            h.update(b"|")
+    return h.hexdigest()
+
+
+class SharedFactorizer(Factorizer):
+    """One factorisation of the reduced stiffness for every point of a family (see the module docstring):
+    A alone, or A bordered by the screened rows, kept while the points' border rows stay equal; with
+    ``cartesian`` (set by ``solve_family`` with a warm start) points whose rows differ use one factorisation
+    bordered by the Cartesian displacement rows of all points' screened contact points (``Cartesian``)."""
+
+    def __init__(self, keep_columns: bool) -> None:
+        self.keep_columns = keep_columns
+        self.plain: Factorization | None = None
+        self.bordered: tuple[sp.csr_matrix, Factorization] | None = None
+        self.built = 0
+        #: the current point's contact operator and the family's Cartesian border (``solve_family`` sets them)
+        self.operator: ContactOperator | None = None
+        self.cartesian: Cartesian | None = None
+
+    @property
+    def factorizations(self) -> int:
+        """How many factorisations the family has built so far."""
+        return self.built + (self.cartesian.factorizations if self.cartesian is not None else 0)
+
+    def linear(self, Ar: sp.csr_matrix, backend: str) -> Factorization:
+        if self.plain is None:
+            self.plain = factorize(Ar, backend)
+            self.built += 1
+        return self.plain
+
+    def contact(self, qp: ContactQP, groups: np.ndarray, initial_active: np.ndarray | None,
+                opts: SolverOptions) -> tuple[Factorization, np.ndarray | None]:
+        """As ``Factorizer.contact`` for a cold start (``screening.factorize_screened`` without a warm
+        active set, so that the border does not follow the start), reused when the border is equal."""
+        min_unknowns = 0 if opts.substructure is True else MIN_UNKNOWNS
+        if not METHODS[opts.method].exact or opts.substructure is False:
+            return self.linear(qp.A, opts.backend), None
+        rows = initial_rows(qp.G, groups)
+        if not borders(qp.n, rows.size, opts.backend, min_unknowns=min_unknowns):
+            return self.linear(qp.A, opts.backend), None
+        border = sp.csr_matrix(qp.B[rows])
+        if self.bordered is not None and same_entries(self.bordered[0], border):
+            fac = self.bordered[1]
+        else:
+            if self.cartesian is not None and self.operator is not None:
+                shared = self.cartesian.schur(qp, border, self.operator, rows, opts, min_unknowns)
+                if shared is not None:
+                    return shared, rows
+            self.bordered = None  # the previous border's factors go before the new ones are built
+            fac = factorize_contact(qp.A, border, opts.backend, min_unknowns=min_unknowns)
+            self.built += 1
+            self.bordered = (border, fac)
+        if fac.schur is None:  # T not positive definite: A's factors alone, no screening (as solve does)
+            return fac, None
+        if not self.keep_columns:  # the columns a previous point solved for: a cold start has none
+            fac.schur.extra = None
+        return fac, rows
+
+
+def _same_borders(operators: list[ContactOperator | None]) -> bool:
+    """Whether every point screens the same rows B[initial_rows] (a force curve: one border serves all)."""
+    ops = [op for op in operators if op is not None]
+    first = ops[0].B[initial_rows(ops[0].G, ops[0].punch)] if ops else None
+    return all(same_entries(op.B[initial_rows(op.G, op.punch)], first) for op in ops[1:])
+
+
+def _row_key(op: ContactOperator, i: int) -> tuple:
+    """The contact point of row i: its vertex or edge and its surface (equal keys, equal Cartesian rows)."""
+    return int(op.vertex[i]), int(op.facet[i]), float(op.zeta[i])
+
+
+class Cartesian:
+    """One factorisation for points whose contact rows differ (an indentation curve, punch positions).
+
+    Row i of B is ∇Z(M_i)·U(M_i) = Σ_c ∂_cZ(M_i) K_c,i U with K_c the Cartesian displacement components at
+    the contact point M_i (``contact.contact_operator`` with the punch replaced by the plane of normal e_c).
+    So for any point, B_r = W K_R over the rows R of every point's screened contact points, and
+    S_rr = B_r A⁻¹ B_rᵀ = W (K_R A⁻¹ K_Rᵀ) Wᵀ: one factorisation of A bordered by K_R (3 rows per contact
+    point) gives X = K_R A⁻¹ K_Rᵀ, and every point's dense Schur block follows by two sparse products.
+    S differs from B A⁻¹ Bᵀ by round-off (~1e-10 relative, as the dense Schur complement of one border),
+    which ``schur.Workspace.finish_exact`` corrects on the true gaps."""
+
+    def __init__(self, space, reduction, operators: list[ContactOperator], points: str) -> None:
+        self.space, self.reduction, self.points = space, reduction, points
+        self.operators = operators
+        self.factorizations = 0
+        self._ready = False
+        self._keys: dict[tuple, int] = {}
+        self._X: np.ndarray | None = None
+        self._fac: Factorization | None = None
+
+    def _rows(self, op: ContactOperator) -> list[sp.csr_matrix]:
+        """K_x, K_y, K_z of ``op``'s rows (same order)."""
+        out = []
+        for c in range(3):
+            e = np.eye(3)[c]
+
+            def plane(X: np.ndarray, c: int = c, e: np.ndarray = e) -> tuple[np.ndarray, np.ndarray]:
+                return X[c], np.repeat(e[:, None], X.shape[1], axis=1)
+
+            planes = [dataclasses.replace(p, body=plane, inverted=False, offset=np.zeros(3), mode="fixed")
+                      for p in op.punches]
+            out.append(contact_operator(self.space, planes, self.points).B)
+        return out
+
+    def _build(self, qp: ContactQP, opts: SolverOptions, min_unknowns: int) -> None:
+        self._ready = True
+        blocks: list[list[sp.csr_matrix]] = [[], [], []]
+        cache: dict[tuple, list[sp.csr_matrix]] = {}
+        for op in self.operators:
+            if op is None:
+                continue
+            zones = tuple((p.zone, p.side) for p in op.punches)
+            if zones not in cache:
+                cache[zones] = self._rows(op)
+            K = cache[zones]
+            for i in initial_rows(op.G, op.punch):
+                key = _row_key(op, int(i))
+                if key not in self._keys:
+                    self._keys[key] = len(self._keys)
+                    for c in range(3):
+                        blocks[c].append(K[c][int(i)])
+        M = len(self._keys)
+        if not borders(qp.n, 3 * M, opts.backend, min_unknowns=min_unknowns):
+            return
+        R = sp.vstack([sp.vstack(b) for b in blocks]).tocsr() @ self.reduction.P
+        fac = factorize_contact(qp.A, R, opts.backend, min_unknowns=min_unknowns)
+        self.factorizations += 1
+        if fac.schur is None:
+            return
+        sch = fac.schur
+        X = sla.cho_solve(sch.chol, np.eye(3 * M), check_finite=False)
+        X[np.diag_indices_from(X)] -= 1.0 / sch.rho
+        self._X, self._fac = 0.5 * (X + X.T), fac
+
+    def schur(self, qp: ContactQP, border: sp.csr_matrix, op: ContactOperator, rows: np.ndarray,
+              opts: SolverOptions, min_unknowns: int) -> Factorization | None:
+        """The family's factorisation carrying the dense Schur block of ``border`` = B[rows] (None: the
+        Cartesian border does not serve this point)."""
+        if not self._ready:
+            self._build(qp, opts, min_unknowns)
+        if self._X is None or self._fac is None:
+            return None
+        try:
+            idx = np.array([self._keys[_row_key(op, int(i))] for i in rows], dtype=np.int64)
+        except KeyError:
+            return None
+        M = len(self._keys)
+        r = np.repeat(np.arange(rows.size), 3)
+        cols = (idx[:, None] + M * np.arange(3)[None, :]).ravel()
+        W = sp.csr_matrix((op.grad[:, rows].T.ravel(), (r, cols)), shape=(rows.size, 3 * M))
+        S = np.asarray((W @ np.asarray(W @ self._X).T).T)
+        self._fac.schur = ProjectedSchur(border, 0.5 * (S + S.T))
+        return self._fac
+
+
+@dataclass
+class ProjectedSchur:
+    """S = B A⁻¹ Bᵀ of one point's screened rows B, from the family's ``Cartesian`` X: what
+    ``schur.Workspace`` reads of a ``linalg.SchurComplement`` (m, matches, columns, extra)."""
+
+    B: sp.csr_matrix
+    S: np.ndarray
+    extra: tuple[sp.csr_matrix, np.ndarray] | None = field(default=None, repr=False)
+
+    @property
+    def m(self) -> int:
+        return self.B.shape[0]
+
+    def matches(self, B: sp.spmatrix) -> bool:
+        return same_entries(B, self.B)
+
+    def columns(self, cols: np.ndarray) -> np.ndarray:
+        return self.S[:, np.asarray(cols, dtype=np.int64)]
+
+
+def solve_family(cases: Sequence[Case], *, method: str | None = None, backend: str | None = None,
+                 max_memory: float | str | None = None, progress: FamilyProgress | None = None,
+                 warm_start: bool = True) -> Iterator[Result]:
+    """Solve cases of one family (equal ``family_key``) on one mesh, assembly and factorisation; yields
+    each case's Result in order, equal to ``analysis.solve(case, method=, backend=)`` (module docstring:
+    to the tolerance with ``warm_start``, bit for bit without).
+
+    ``progress(index, iteration, residuals)`` after every contact-solver iteration of point ``index``.
+    ``max_memory`` bounds every point as in ``analysis.solve``. Cases of different families: InputError
+    naming ``cases``.
+    """
+    cases = list(cases)
+    for case in cases:
+        expect_case(case, "solve_family")
+    expect_choice(method, "solve_family", "method", METHODS)
+    expect_choice(backend, "solve_family", "backend", ("auto", *BACKENDS))
+    expect_callable(progress, "solve_family", "progress")
+    if not isinstance(warm_start, bool):
+        raise TypeError(f"solve_family(): warm_start must be True or False, got {type(warm_start).__name__}")
+    placed = [place_punches(c.punches, c.shell) for c in cases]
+    keys = [_key(c, p) for c, p in zip(cases, placed)]
+    for i, k in enumerate(keys):
+        if k != keys[0]:
+            raise InputError("cases", f"case {i} is not of the family of case 0 (another shell, material, supports, "
+                             "loads, solver options or mesh; family_key tells them apart): solve it on its own")
+    return _solve_family(cases, placed, method, backend, max_memory, progress, warm_start)
+
+
+def _solve_family(cases: list[Case], placed: list[list[Punch]], method: str | None, backend: str | None,
+                  max_memory: float | str | None, progress: FamilyProgress | None,
+                  warm_start: bool) -> Iterator[Result]:
+    factorizer = SharedFactorizer(keep_columns=warm_start)
+    base: Discretization | None = None
+    previous: Result | None = None
+    checked: list[tuple] = []  # the punch zones whose size was checked: the rows, and so the memory, follow them
+    try:
+        for i, (case, punches) in enumerate(zip(cases, placed)):
+            opts = case.solver.with_method(method)
+            if backend is not None:
+                opts = dataclasses.replace(opts, backend=backend)
+            timer = Timer()
+            zones = tuple(p.zone for p in punches)
+            if zones not in checked:
+                with timer.stage("mesh"):
+                    check_size(case, punches, max_memory, opts.method, opts.backend)
+                checked.append(zones)
+            if base is None:  # the family's mesh, space, stiffness, loads and supports
+                d = base = discretize(case, opts.contact_points, timer, punches)
+                base.space.memo = {}  # every point's post-processing evaluates the same points
+                with timer.stage("assembly"):  # every point's contact rows
+                    operators = [d.operator] + [
+                        contact_operator(base.space, p, opts.contact_points) if p else None for p in placed[1:]]
+                if warm_start and not _same_borders(operators):  # equal to round-off: one border for differing rows
+                    factorizer.cartesian = Cartesian(base.space, base.reduction, operators, opts.contact_points)
+            else:
+                op = operators[i]
+                d = dataclasses.replace(base, punches=punches, operator=op,
+                                        Br=None if op is None else op.B @ base.reduction.P)
+            factorizer.operator = d.operator
+            step = None if progress is None else (lambda it, res, i=i: progress(i, it, res))
+            result = solve_discretized(case, d, opts, timer, warm_start=previous if warm_start else None,
+                                       progress=step, max_memory=max_memory, factorizer=factorizer)
+            result.info["family"] = {"index": i, "points": len(cases), "factorizations": factorizer.factorizations}
+            previous = result
+            yield result
+    finally:  # the Results keep the space: not its memo
+        if base is not None:
+            base.space.memo = None
+
+
+def solve_families(cases: Sequence[Case], *, max_memory: float | str | None = None,
+                   warm_start: bool = False) -> Iterator[tuple[int, Result]]:
+    """Every case solved, those of one family (``family_key``) together by ``solve_family``: yields
+    (index into ``cases``, Result), family by family in the order of their first case. Without a warm
+    start (the default) each Result is bit-identical to ``analysis.solve`` of its case alone."""
+    groups: dict[str, list[int]] = {}
+    for i, case in enumerate(cases):
+        try:
+            key = family_key(case)
+        except InputError:  # a punch that cannot be placed: its own solve reports it, in its turn
+            key = f"alone {i}"
+        groups.setdefault(key, []).append(i)
+    for members in groups.values():
+        results = solve_family([cases[i] for i in members], max_memory=max_memory, warm_start=warm_start)
+        yield from zip(members, results)
