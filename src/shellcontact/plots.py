@@ -169,16 +169,23 @@ def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.
     vm = np.asarray(fields[f"von_mises_{surface}"], float)
     tri = _vertex_map(result)
     x, phi = tri.x, tri.y
+    # the map from the finite-element fields on a refined copy of the mesh (vertex values alone draw blocks);
+    # the maximum and the title from the vertex values, as summary.json reports them
+    sol = result.solution
+    fine = _refined(result, 30000)
+    xf, phf = fine.p[0], fine.p[1] / sol.shell.radius
+    vm_fine = sol.surface(xf, phf, surface, values=sol.evaluate(xf, phf)).von_mises
+    tri_fine = Triangulation(xf, np.degrees(phf), fine.t.T)
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
-    cs = ax.tricontourf(tri, vm, levels=_levels(vm), cmap="plasma")
+    cs = ax.tricontourf(tri_fine, vm_fine, levels=_levels(np.concatenate([vm_fine, vm])), cmap="plasma")
     fig.colorbar(cs, ax=ax, label=f"von Mises stress, {surface} surface{_unit(result, 'pressure')}",
                  ticks=MaxNLocator(8))
     i = int(np.argmax(vm))
     ax.plot(x[i], phi[i], "wx", ms=9, mew=2, label="maximum")
     fy = getattr(result.case, "yield_stress", None)
     if fy is not None and vm.min() < fy < vm.max():
-        ax.tricontour(tri, vm, levels=[fy], colors="w", linestyles="--", linewidths=1.2)
+        ax.tricontour(tri_fine, vm_fine, levels=[fy], colors="w", linestyles="--", linewidths=1.2)
         ax.plot([], [], "w--", label="yield stress")
     _contact_outline(ax, result, fields)
     legend = ax.legend(loc="upper right", fontsize=8, facecolor="0.5", framealpha=0.6)
