@@ -9,8 +9,9 @@ Each script prints its own table (peer, ratio, machine). The last line printed h
     {"targets": {name: {"value": ..., "goal": ..., "unit": ..., "peer": ...}, ...}}
 
 for assembly_speedup, contact_vs_linear, curve_vs_linear, speedup_vs_qp_peer, seconds_1M_dofs, peak_gb_1M_dofs,
-force_digits_1M_dofs, cli_help_seconds and import_seconds (start-up, benchmarks/startup.py). A target
-that this run does not measure has value null and a "reason".
+force_digits_1M_dofs, cli_help_seconds and import_seconds (start-up, benchmarks/startup.py), plus
+"contact_points": the decision of benchmarks/contact_points.py (accuracy per second of the two
+``[solver] contact_points`` choices). A target that this run does not measure has value null and a "reason".
 """
 
 from __future__ import annotations
@@ -87,6 +88,7 @@ def main(argv=None) -> dict:
         targets["assembly_speedup"]["reason"] = "benchmarks/assembly.py failed"
     run_script("linear_solve", quick)
     run_script("scaling", quick)
+    points = run_script("contact_points", quick)  # the default contact points (issue 13): no goal, its decision
     for name in ("contact_vs_linear", "curve", "qp_peers", "scale_1m", "force_digits"):
         if (HERE / f"{name}.py").exists():
             # the peers' comparisons run on one thread; the 1M-dof goals are for the whole machine
@@ -96,7 +98,7 @@ def main(argv=None) -> dict:
                 if name == "force_digits" and k in targets:  # the demo case's figure stays alongside
                     v = {**v, "demo_case": targets[k]}
                 targets[k] = v
-    out = {"targets": targets}
+    out = {"targets": targets, "contact_points": (points or {}).get("decision")}
     print(json.dumps(out))
     return out
 

@@ -81,12 +81,13 @@ def roller_dict(nx=4, nphi=6, refine=0, indentation=2e-3, pattern="alternate", s
     }
 
 
-def sphere_dict(n=8, refine=0, indentation=1e-2, pattern="alternate") -> dict:
-    """The paper's panel (cases/paper_panel.toml) on an n × n mesh."""
+def sphere_dict(n=8, refine=0, indentation=1e-2, pattern="alternate", solver=None) -> dict:
+    """The paper's panel (cases/paper_panel.toml) on an n × n mesh (``solver``: keys to set in [solver])."""
     with open(demo_case_path(), "rb") as f:
         d = tomllib.load(f)
     d = copy.deepcopy(d)
     d["mesh"].update(nx=n, nphi=n, refine=refine, pattern=pattern)
+    d.setdefault("solver", {}).update(solver or {})
     d["punch"][0]["indentation"] = indentation
     return d
 
@@ -231,7 +232,9 @@ def test_flat_punch_reaction_concentrates_at_the_strip_edges():
     than half of the force (a uniform pressure would give one half)."""
     rows = []
     for r in range(4):
-        d = roller_dict(nx=4, nphi=8, refine=r)
+        # the line sums run along the vertex generators: the paper's vertex constraints (with the edge
+        # midpoints too the active-set method needs more than 100 iterations at refine 3, the dual 210)
+        d = roller_dict(nx=4, nphi=8, refine=r, solver={"contact_points": "vertices"})
         d["punch"] = [
             {
                 "shape": "plane",
@@ -295,8 +298,11 @@ def test_sphere_total_force_across_solvers_and_meshes():
     (O(ε) error 2e-8 there) and so depended on the machine.
     """
     table = []
+    # on the paper's vertex constraints (the tables below were measured there); with the edge midpoints the
+    # penalty solve at these ε leaves rows of ~zero force on the other side of the activity threshold
+    vertices = {"contact_points": "vertices"}
     for r in range(3):
-        res = {m: solve(case_from_dict(sphere_dict(refine=r)), method=m) for m in METHODS}
+        res = {m: solve(case_from_dict(sphere_dict(refine=r, solver=vertices)), method=m) for m in METHODS}
         tot = {m: float(rr.contact.operator.total_normal_force(rr.contact.Lambda)[0]) for m, rr in res.items()}
         assert tot["dual"] == pytest.approx(tot["active-set"], rel=1e-8)
         exact = res["active-set"]
@@ -307,7 +313,7 @@ def test_sphere_total_force_across_solvers_and_meshes():
         assert F0 == pytest.approx(tot["active-set"], rel=1e-8)
         eps = eps0 * 1e-4 / (abs(F0 - pred0) / F0)
         for e in (eps, 0.1 * eps):
-            d = sphere_dict(refine=r)
+            d = sphere_dict(refine=r, solver=vertices)
             d["solver"]["penalty"] = e
             pen = solve(case_from_dict(d), method="penalty")
             assert np.array_equal(pen.contact.active, exact.contact.active)

@@ -37,6 +37,7 @@ from .mesh import ShellMesh, build_mesh
 from .options import SolverOptions
 from .punches import Punch, check_linear_range, place_punches
 from .results import ShellSolution
+from .rim import rim_line_force
 from .sizing import check_size, mesh_lines
 from .solvers import ContactQP, ContactSolution
 from .solvers.methods import METHODS
@@ -148,6 +149,8 @@ class ContactResult:
     outside: np.ndarray  # per punch: largest penetration at vertices outside its candidate zone
     between: np.ndarray  # per punch: largest penetration at edge midpoints between constraint points
     zone: list[dict] = field(default_factory=list)  # per punch: where it touches (contact.contact_zone)
+    rim: list[dict | None] = field(default_factory=list)  # per punch: the rim's line force (rim.rim_line_force)
+    rim_lines: list[list[np.ndarray]] = field(default_factory=list)  # per punch: the rim's polylines in (x, s)
 
     @property
     def pressure(self) -> np.ndarray:
@@ -155,10 +158,16 @@ class ContactResult:
 
     def summary(self) -> list[dict]:
         out = self.operator.summary(self.Lambda, self.active, self.delta)
-        for entry, pen, mid, zone in zip(out, self.outside, self.between, self.zone):
+        rims = self.rim or [None] * len(out)
+        for entry, pen, mid, zone, rim in zip(out, self.outside, self.between, self.zone, rims):
             entry["penetration_outside_zone"] = float(pen)
             entry["penetration_between_points"] = float(mid)
-            entry["zone"] = zone
+            # where the punch carries force but no sampled point is within the tolerance (a point contact on a
+            # coarse mesh), say so rather than report an area of 0 that reads as no contact
+            state = "none" if entry["total_normal_force"] <= 0.0 else "area" if zone["area"] > 0.0 else "point"
+            entry["zone"] = {**zone, "state": state}
+            if rim is not None:
+                entry["rim"] = rim
         return out
 
     def warnings(self) -> list[str]:
@@ -404,7 +413,7 @@ def case_mesh(case: Case, punches: list[Punch] | tuple[()] = ()) -> ShellMesh:
     return build_mesh(case.shell, case.mesh, *mesh_lines(case, punches))
 
 
-def discretize(case: Case, contact_points: str = "vertices", timer: Timer | None = None,
+def discretize(case: Case, contact_points: str = SolverOptions.contact_points, timer: Timer | None = None,
                punches: list[Punch] | None = None) -> Discretization:
     """Mesh (fitted to the punches), space, assembly, supports and contact operator of ``case``
     (``punches``: the case's punches already placed)."""
@@ -533,6 +542,7 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
                                 outside=penetration_outside(space, punches, U, cs.delta),
                                 between=_penetration_between(space, punches, opts.contact_points, U, cs.delta),
                                 zone=contact_zone(space, punches, U, cs.delta))
+        contact.rim, contact.rim_lines = rim_line_force(space, punches, op, Lam, U, cs.delta, contact.zone)
         sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam)
     return _checked(Result(case=case, solution=sol, timings=timer.total(), info=info, contact=contact,
                            punches=punches, discretization=d))

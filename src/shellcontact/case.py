@@ -161,9 +161,12 @@ SOLVER = Table("solver", (
         "precision (`numpy.longdouble`), then refine Λ on those gaps: the force is then not limited by cond(A)·ε "
         "(exact methods; costs a few solves; [solvers.md](solvers.md#accuracy-extended-precision-refinement))",
         default=False),
-    Key("contact_points", "choice", "where Π ≥ 0 is imposed: at the mesh vertices of the zone (MODEL.md (8.6)), or "
-        "also at the edge midpoints of the zone's triangles (weights from P1 on the red-refined triangles: \\|T\\|/12 "
-        "per vertex, \\|T\\|/4 per midpoint)", choices=("vertices", "vertices+midpoints"),
+    Key("contact_points", "choice", "where Π ≥ 0 is imposed: also at the edge midpoints of the zone's triangles "
+        "(weights from P1 on the red-refined triangles: \\|T\\|/12 per vertex, \\|T\\|/4 per midpoint), or only at "
+        "the mesh vertices of the zone, the paper's choice (MODEL.md (8.6)), which lets the shell sink in between "
+        "along a contact line round the circumference (the default by measured accuracy per second: "
+        "[solvers.md](solvers.md#contact-points-vertices-or-vertices-and-midpoints))",
+        choices=("vertices", "vertices+midpoints"),
         default=SolverOptions.contact_points),
     Key("substructure", "choice", "factorise A bordered by the contact rows predicted to touch, for the dense Schur "
         "complement (exact methods, PARDISO): `\"auto\"` from 40 000 unknowns on, `true` always, `false` never "

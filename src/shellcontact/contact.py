@@ -77,6 +77,7 @@ class ContactOperator:
     forces: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (k,) prescribed forces P_j
     nvertices: int = 0
     twins: tuple[np.ndarray, np.ndarray] | None = None  # full cylinder: (vertices on φ = β, twins on φ = α)
+    ends: np.ndarray | None = None  # (2, m) the two vertices of an edge-midpoint row's edge, −1 for a vertex row
 
     # -- sizes and slicing ------------------------------------------------------------------
     @property
@@ -377,6 +378,7 @@ def contact_operator(space: ShellSpace, punches: Sequence[Punch], points: str = 
         forces=np.array([punches[k].force for k in force_punches], dtype=float),
         nvertices=m.nvertices,
         twins=twins,
+        ends=np.where(facet >= 0, m.mesh.facets[:, np.maximum(facet, 0)], -1),
     )
 
 
@@ -414,6 +416,37 @@ def penetration_outside(
 ZONE_GAP = 1e-3
 
 
+#: the fields the linearised gap needs at a point
+GAP_QUANTITIES = ("u", "v", "w", "w_x", "w_s")
+
+
+def linearised_gap(shell, punch: Punch, x: np.ndarray, phi: np.ndarray, fields: dict[str, np.ndarray],
+                   step: float = 0.0) -> np.ndarray:
+    """Π = Z(M) + ∇Z·U(M) − δ ∇Z·d at middle-surface points (x, φ) (MODEL.md §5), from the values of
+    GAP_QUANTITIES there; ``step`` is a force-controlled punch's travel δ."""
+    from .geometry import to_global
+
+    a = shell.radius
+    zeta = punch.zeta(shell, x, phi)
+    Z, g = punch.Z(shell.point(x, phi, zeta))
+    local = np.stack([fields["u"] - zeta * fields["w_x"], fields["v"] * (1.0 + zeta / a) - zeta * fields["w_s"],
+                      fields["w"]])
+    gap = Z + np.sum(g * to_global(local, phi), axis=0)
+    if step:
+        gap -= step * (punch.direction @ g)
+    return gap
+
+
+def zone_tolerance(punch: Punch, step: float | None = None, rel_gap: float = ZONE_GAP) -> float:
+    """The gap below which a point counts as touching: ``rel_gap`` × the punch's travel (its indentation,
+    its force-control travel δ = ``step``, or else its overlap)."""
+    if punch.mode == "force" and step is not None:
+        travel = abs(step)
+    else:
+        travel = punch.indentation if punch.mode == "indentation" else punch.overlap
+    return rel_gap * travel
+
+
 def contact_zone(space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, delta: np.ndarray | None = None,
                  rel_gap: float = ZONE_GAP, order: int = 10) -> list[dict]:
     """Where each punch touches, as quantities that converge under refinement.
@@ -421,12 +454,12 @@ def contact_zone(space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, del
     The linearised gap Π = Z(M) + ∇Z·U(M) (− δ ∇Z·d under force control; MODEL.md §5) is evaluated at
     the quadrature points of the candidate zone's triangles, and a point counts as touching where
     Π ≤ ``rel_gap`` × the punch's travel (its indentation, its force-control travel δ, or else its
-    overlap). Returns per punch ``area`` (of the middle surface), ``x`` = [x0, x1] and ``phi`` = [φ0, φ1]
+    overlap; for a fixed punch that only touches, the largest displacement toward it in its zone).
+    Returns per punch ``area`` (of the middle surface), ``x`` = [x0, x1] and ``phi`` = [φ0, φ1]
     (degrees) of the touching points, and the ``gap_tolerance`` used. Unlike the weights of the active
     constraint points — which shrink with h when a Kirchhoff shell carries the load in a line force at
     the rim while the inside of the zone lifts off by a fraction of a micrometre — these converge.
     """
-    from .geometry import to_global
     from .model import field_derivatives
 
     sh = space.mesh.shell
@@ -439,18 +472,15 @@ def contact_zone(space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, del
         x, s, det = space.reference_to_physical(els, X)
         d = field_derivatives(space, U, els, X)
         x, phi = x.ravel(), (s / a).ravel()
-        zeta = p.zeta(sh, x, phi)
-        Z, g = p.Z(sh.point(x, phi, zeta))
-        local = np.stack([d["u"].ravel() - zeta * d["w_x"].ravel(),
-                          d["v"].ravel() * (1.0 + zeta / a) - zeta * d["w_s"].ravel(), d["w"].ravel()])
-        gap = Z + np.sum(g * to_global(local, phi), axis=0)
-        travel = p.indentation if p.mode == "indentation" else p.overlap
-        if p.mode == "force" and delta is not None:
-            step = float(np.asarray(delta, float)[forced.index(k)])
-            gap -= step * (p.direction @ g)
-            travel = abs(step)
-        tol = rel_gap * travel
-        touching = (gap <= tol) & p.zone.contains(x, phi) & p.on_body(sh.point(x, phi, zeta))
+        step = float(np.asarray(delta, float)[forced.index(k)]) if p.mode == "force" and delta is not None else None
+        gap = linearised_gap(sh, p, x, phi, {q: d[q].ravel() for q in GAP_QUANTITIES}, step or 0.0)
+        tol = zone_tolerance(p, step, rel_gap)
+        points = sh.point(x, phi, p.zeta(sh, x, phi))
+        inside = p.zone.contains(x, phi) & p.on_body(points)
+        if tol == 0.0 and inside.any():  # a fixed punch just touching: no travel, scale by the motion toward it
+            Z, _ = p.Z(points)
+            tol = rel_gap * float(np.max(np.abs(gap - Z)[inside]))
+        touching = (gap <= tol) & inside
         area = float(((np.abs(det)[:, None] * W[None, :]).ravel())[touching].sum())
         entry: dict = {"area": area, "gap_tolerance": float(tol)}
         if touching.any():

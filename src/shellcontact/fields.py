@@ -19,11 +19,12 @@ def contact_vertex_arrays(
 ) -> dict[str, np.ndarray]:
     """Per-vertex contact arrays from a ``contact.ContactOperator`` and the row values of a solve.
 
-    Rows of all punches are gathered on their mesh vertex (edge-midpoint rows are left out):
-    ``contact_status`` 1 if any row at the vertex is active, 0 if it is only a candidate, −1 if
-    no row; ``contact_pressure`` = ``op.vertex_pressure(Lam)``; ``contact_force`` = Σ Λ_i;
-    ``contact_force_vector`` (nv, 3) = Σ Λ_i ∇Z(M_i); ``gap`` = min over the rows of G + BU (NaN
-    where no row). On a full cylinder the φ = β copies take the values of their φ = α twins.
+    Rows of all punches are gathered on their mesh vertex: ``contact_status`` 1 if any row at the
+    vertex is active, 0 if it is only a candidate, −1 if no row; ``contact_pressure`` =
+    ``op.vertex_pressure(Lam)``; ``gap`` = min over the rows of G + BU (NaN where no row) — these
+    from the vertex rows; ``contact_force`` = Σ Λ_i and ``contact_force_vector`` (nv, 3) = Σ Λ_i ∇Z(M_i)
+    over the vertex's rows plus half of each edge-midpoint row on its edges, so that they sum to the
+    punches' forces. On a full cylinder the φ = β copies take the values of their φ = α twins.
     """
     nv = int(op.nvertices)
     Lam = np.asarray(Lam, float)
@@ -36,6 +37,11 @@ def contact_vertex_arrays(
     np.add.at(force, v, Lam[r])
     fvec = np.zeros((nv, 3))
     np.add.at(fvec, v, (np.asarray(op.grad)[:, r] * Lam[r]).T)
+    ends = getattr(op, "ends", None)
+    mid = np.nonzero(np.asarray(op.vertex) < 0)[0] if ends is not None else np.zeros(0, int)
+    for end in (ends[:, mid] if mid.size else ()):  # an edge midpoint's force, half to each end of its edge
+        np.add.at(force, end, 0.5 * Lam[mid])
+        np.add.at(fvec, end, 0.5 * (np.asarray(op.grad)[:, mid] * Lam[mid]).T)
     out = {
         "contact_status": status,
         "contact_pressure": np.asarray(op.vertex_pressure(Lam), float),

@@ -121,8 +121,17 @@ def _vertex_map(result) -> Triangulation:
     return Triangulation(x, np.degrees(s / sol.shell.radius), sol.space.mesh.t.T)
 
 
-def _contact_outline(ax, result, fields: dict[str, np.ndarray] | None = None) -> bool:
-    """The boundary of the contact region (the active constraint vertices) on a map over (x, φ°)."""
+def _contact_outline(ax, result, fields: dict[str, np.ndarray] | None = None, punch: int | None = None) -> bool:
+    """The boundary of the contact region on a map over (x, φ°): the zone's rim (where the gap reaches the zone's
+    tolerance, ``rim.rim_line_force``) of every punch or of ``punch``; else the outline of the active vertices."""
+    rims = getattr(getattr(result, "contact", None), "rim_lines", None) or []
+    lines = [ln for k, group in enumerate(rims) if punch is None or k == punch for ln in group]
+    if lines:
+        a = result.solution.shell.radius
+        for ln in lines:
+            ax.plot(ln[:, 0], np.degrees(ln[:, 1] / a), "c-", lw=1.5)
+        ax.plot([], [], "c-", label="contact boundary")
+        return True
     status = (fields if fields is not None and "contact_status" in fields else contact_vertex_fields(result)).get(
         "contact_status")
     if status is None or not np.any(status == 1) or not np.any(status != 1):
@@ -160,16 +169,23 @@ def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.
     vm = np.asarray(fields[f"von_mises_{surface}"], float)
     tri = _vertex_map(result)
     x, phi = tri.x, tri.y
+    # the map from the finite-element fields on a refined copy of the mesh (vertex values alone draw blocks);
+    # the maximum and the title from the vertex values, as summary.json reports them
+    sol = result.solution
+    fine = _refined(result, 30000)
+    xf, phf = fine.p[0], fine.p[1] / sol.shell.radius
+    vm_fine = sol.surface(xf, phf, surface, values=sol.evaluate(xf, phf)).von_mises
+    tri_fine = Triangulation(xf, np.degrees(phf), fine.t.T)
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
-    cs = ax.tricontourf(tri, vm, levels=_levels(vm), cmap="plasma")
+    cs = ax.tricontourf(tri_fine, vm_fine, levels=_levels(np.concatenate([vm_fine, vm])), cmap="plasma")
     fig.colorbar(cs, ax=ax, label=f"von Mises stress, {surface} surface{_unit(result, 'pressure')}",
                  ticks=MaxNLocator(8))
     i = int(np.argmax(vm))
     ax.plot(x[i], phi[i], "wx", ms=9, mew=2, label="maximum")
     fy = getattr(result.case, "yield_stress", None)
     if fy is not None and vm.min() < fy < vm.max():
-        ax.tricontour(tri, vm, levels=[fy], colors="w", linestyles="--", linewidths=1.2)
+        ax.tricontour(tri_fine, vm_fine, levels=[fy], colors="w", linestyles="--", linewidths=1.2)
         ax.plot([], [], "w--", label="yield stress")
     _contact_outline(ax, result, fields)
     legend = ax.legend(loc="upper right", fontsize=8, facecolor="0.5", framealpha=0.6)
@@ -320,8 +336,29 @@ def _contact_box(fields: dict[str, np.ndarray], x: np.ndarray, phi: np.ndarray, 
     return (xr[0] - px, xr[1] + px), (pr[0] - pp, pr[1] + pp)
 
 
+def _punch_status(result, nv: int) -> list[np.ndarray] | None:
+    """Per punch, the vertex status of its own rows (1 active, 0 candidate, −1 not its candidate), or None."""
+    c = getattr(result, "contact", None)
+    op = getattr(c, "operator", None)
+    if op is None or getattr(c, "active", None) is None or len(op.punches) < 2:
+        return None
+    out = []
+    for k in range(len(op.punches)):
+        rows = op.rows(k)
+        rows = rows[op.vertex[rows] >= 0]
+        status = np.full(nv, -1)
+        status[op.vertex[rows]] = 0
+        status[op.vertex[rows][np.asarray(c.active, bool)[rows]]] = 1
+        if op.twins is not None:
+            slave, master = op.twins
+            status[slave] = status[master]
+        out.append(status)
+    return out
+
+
 def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
-    """Contact-pressure map over the candidate zone, with the contact boundary drawn (None without contact)."""
+    """Contact-pressure map over the candidate zone, with the contact boundary drawn (None without contact);
+    with several punches one panel per punch, each zoomed to its own zone, on one colour scale."""
     fields = contact_vertex_fields(result)
     p = fields.get("contact_pressure")
     if p is None:
@@ -329,23 +366,32 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     sol = result.solution
     tri = _vertex_map(result)
     x, phi = tri.x, tri.y
-    fig = Figure(figsize=(6.4, 4.8))
-    ax = fig.add_subplot()
     p = np.asarray(p, float)
     levels = _levels(p, 0.0)
-    cs = ax.tricontourf(tri, p, levels=levels, cmap="inferno")
-    fig.colorbar(cs, ax=ax, label=f"contact pressure Λ/ω{_unit(result, 'pressure')}", ticks=MaxNLocator(8))
-    status = fields.get("contact_status")
-    if _contact_outline(ax, result, fields):
-        act = np.asarray(status) == 1
-        ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
-        ax.legend(loc="upper right", fontsize=8)
+    per_punch = _punch_status(result, x.size)
+    statuses = per_punch or [fields.get("contact_status")]
+    fig = Figure(figsize=(6.4 if len(statuses) == 1 else 4.8 * len(statuses) + 1.2, 4.8))
+    axes = [fig.add_subplot(1, len(statuses), k + 1) for k in range(len(statuses))]
     h = sol.space.mesh.h() / math.sqrt(2.0)
-    xr, pr = _contact_box(fields, x, phi, h, math.degrees(h / sol.shell.radius))
-    ax.set_xlim(*xr)
-    ax.set_ylim(*pr)
-    ax.set_title(f"contact pressure: peak {_q(result, float(np.max(p)), 'pressure')}")
-    _map_axes(ax, result)
+    for k, (ax, status) in enumerate(zip(axes, statuses)):
+        cs = ax.tricontourf(tri, p, levels=levels, cmap="inferno")
+        own = {**fields, "contact_status": status} if status is not None else fields
+        if _contact_outline(ax, result, own, punch=k if per_punch else None):
+            act = np.asarray(status) == 1
+            ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
+            ax.legend(loc="upper right", fontsize=8)
+        xr, pr = _contact_box(own, x, phi, h, math.degrees(h / sol.shell.radius))
+        ax.set_xlim(*xr)
+        ax.set_ylim(*pr)
+        if per_punch:
+            mine = p[np.asarray(status) >= 0]
+            peak = float(mine.max()) if mine.size else 0.0
+            ax.set_title(f"punch {k}: peak {_q(result, peak, 'pressure')}", fontsize=10)
+        else:
+            ax.set_title(f"contact pressure at the vertices: peak {_q(result, float(np.max(p)), 'pressure')}",
+                         fontsize=10)
+        _map_axes(ax, result)
+    fig.colorbar(cs, ax=axes, label=f"contact pressure Λ/ω{_unit(result, 'pressure')}", ticks=MaxNLocator(8))
     return _finish(fig, path)
 
 

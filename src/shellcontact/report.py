@@ -255,7 +255,16 @@ def _headline(s: Mapping[str, Any]) -> str:
             if zone.get("x") and zone.get("phi"):
                 (x0, x1), (p0, p1) = zone["x"], zone["phi"]
                 note += f": x from {_g(x0)} to {with_unit(_g(x1), 'length', system)}, φ from {_g(p0)}° to {_g(p1)}°"
+            if zone.get("state") == "point":
+                note = "a point contact: the punch carries force, no sampled point is within the gap tolerance"
             rows.append([f"{who}contact zone area", zone["area"], u("area"), note])
+        rim = c.get("rim")
+        if isinstance(rim, Mapping):
+            share = rim["force"] / c["total_normal_force"] if c["total_normal_force"] else 0.0
+            rows.append([f"{who}rim line force (mean)", rim["mean_line_force"], u("force/length"),
+                         f"peak {with_unit(_g(rim['peak_line_force']), 'force/length', system)} along "
+                         f"{with_unit(_g(rim['length']), 'length', system)} of zone boundary, carrying "
+                         f"{share:.0%} of the normal force"])
         rows.append([f"{who}peak contact pressure", c["peak_pressure"], u("pressure"),
                      "nodal Λ/ω; grows under refinement at a line force"])
     rows.append(["max deflection |w|", s["max_abs_w"], u("length"), ""])
@@ -347,7 +356,7 @@ def _contact(s: Mapping[str, Any]) -> str:
     for e in entries:
         for k, v in e.items():
             sub = [f"{k}.{j}" for j in v] if isinstance(v, Mapping) else [k]
-            keys += [x for x in sub if x not in keys]
+            keys += [x for x in sub if x not in keys and x != "rim.samples"]  # the samples: summary.json
 
     def value(e: Mapping[str, Any], key: str) -> Any:
         head, _, tail = key.partition(".")

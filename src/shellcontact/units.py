@@ -60,7 +60,8 @@ SUMMARY_KINDS: tuple[tuple[str, str | None], ...] = (
     # dimensionless or counts: no entry in the units map
     ("dofs", None), ("unknowns", None), ("elements", None), ("vertices", None), ("iterations", None),
     ("tolerance", None), ("kkt_scaled.*", None), ("equilibrium.relative_residual", None),
-    ("contact.constraints", None), ("contact.active_vertices", None), ("contact.active_points", None),
+    ("contact.constraints", None), ("contact.rim.lines", None), ("contact.active_vertices", None),
+    ("contact.active_points", None),
     ("stresses.*.utilisation_max", None),
     ("kkt.stationarity", None), ("kkt.complementarity", None), ("kkt.duality_gap", None),
     ("kkt.force_balance", None),
@@ -72,6 +73,8 @@ SUMMARY_KINDS: tuple[tuple[str, str | None], ...] = (
     ("reaction_resultant", "force"),
     ("reactions.*.force", "force"), ("reactions.*.moment", "moment"), ("reactions.*.about", "length"),
     ("equilibrium.*.force", "force"), ("equilibrium.*.moment", "moment"),
+    ("contact.rim.samples.phi", "angle"), ("contact.rim.samples.x", "length"), ("contact.rim.length", "length"),
+    ("contact.rim.*line_force", "force/length"), ("contact.rim.*force", "force"),
     ("contact.zone.area", "area"), ("contact.zone.phi", "angle"), ("contact.zone.*", "length"),
     ("contact.area", "area"), ("contact.peak_pressure", "pressure"), ("contact.moment", "moment"),
     ("contact.force*", "force"), ("contact.total_normal_force", "force"),
