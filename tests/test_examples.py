@@ -40,6 +40,7 @@ COARSE = {
     "force_indentation_sweep": ("mesh.nx=16", "mesh.nphi=16", "mesh.refine=0"),
     "pinched_cylinder_full": ("mesh.nx=8", "mesh.nphi=24", "mesh.refine=0"),
     "pressurized_cylinder": ("mesh.nx=20", "mesh.nphi=1", "mesh.refine=0"),
+    "ring_stiffness": ("mesh.nx=4", "mesh.nphi=32", "mesh.refine=0"),
 }
 FILES = sorted(EXAMPLES.glob("*.toml"))
 
@@ -190,6 +191,28 @@ def test_saddle_support_two_punches_force_control():
     x, p = np.array([0.05, 0.3]), np.array([60.0, 250.0])
     assert np.allclose(w_at(res, x, p), w_at(res, x, (180 - p) % 360), rtol=1e-6, atol=1e-12)
     assert np.allclose(w_at(res, x, p), w_at(res, -x, p), rtol=1e-6, atol=1e-12)
+
+
+def test_ring_stiffness_between_two_plates_against_thin_ring_theory():
+    """A pipe held by the two plates alone: equal and opposite plate forces, the pipe translated by half
+    the travel, and the ring stiffness F/(L δ) of thin-ring theory, D/(0.1488 R³) with D = E t³/(12(1−ν²))
+    (plane strain: the ends are symmetry planes of a uniform long pipe), within the O(t/R) of thin-ring
+    theory and the coarse mesh; the ISO 9969 SN follows from it as in docs/examples.md."""
+    res = solved("ring_stiffness")
+    s = res.summary()
+    top, bottom = s["contact"]
+    F = res.case.raw["punch"][0]["force"]
+    assert top["force"][2] == pytest.approx(-F, rel=1e-10) and bottom["force"][2] == pytest.approx(F, rel=1e-10)
+    delta = top["punch_travel"]
+    assert s["rigid_motion"]["restrained"] == ["translation along z"]
+    assert s["rigid_motion"]["translation"][2] == pytest.approx(-delta / 2, rel=1e-6)
+    sh = res.case.shell
+    m = sh.material
+    D = m.young * sh.thickness**3 / (12 * (1 - m.poisson**2))
+    ring = D / (0.1488 * sh.radius**3)  # F/(L δ) of a thin ring under two opposite line loads
+    stiffness = F / (sh.length * delta)
+    print(f"\nF/(L δ) = {stiffness:.6g}, thin ring {ring:.6g}, ratio {stiffness / ring:.5f}")
+    assert stiffness == pytest.approx(ring, rel=1e-2)
 
 
 def test_force_indentation_sweep_is_monotone(tmp_path):

@@ -31,6 +31,8 @@ from .arguments import expect_callable, expect_choice
 from .case import Case, expect_case
 from .contact import ContactOperator, contact_operator, contact_zone, penetration_outside
 from .errors import InputError, SolverError
+from .floating import Floating
+from .floating import analyse as analyse_floating
 from .linalg import BACKENDS, Factorization, factorize
 from .loads import load_vector
 from .mesh import ShellMesh, build_mesh
@@ -358,6 +360,8 @@ class Result:
             out["iterations"] = int(cs.iterations)
             if "penalty" in self.info:
                 out["penalty"] = self.info["penalty"]
+            if "rigid_motion" in self.info:
+                out["rigid_motion"] = self.info["rigid_motion"]
         out["warnings"] = self.warnings()
         out["backend"] = self.info.get("backend")
         out["timings"] = dict(self.timings)
@@ -396,15 +400,23 @@ class Discretization:
     punches: list[Punch]
     operator: ContactOperator | None  # None without punches
     Br: sp.csr_matrix | None  # B P
+    floating: Floating | None = None  # the free rigid motions when contact alone holds the shell
 
     def qp(self) -> ContactQP:
-        """The reduced contact QP of MODEL.md §8."""
+        """The reduced contact QP of MODEL.md §8; a floating shell's restrained rigid motions are unknowns
+        after the force-controlled travels (columns of D, loads in P: floating.py)."""
         op = self.operator
         if op is None:
             raise InputError("punch", "the case has no punch: there is no contact problem")
-        return ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights,
-                         D=op.D, P=op.forces if op.D is not None else None, row_labels=_row_labels(op),
-                         symmetric=True)
+        D, P = op.D, op.forces if op.D is not None else None
+        labels = [f"punch.{k}.force" for k in op.force_punches]
+        fl = self.floating
+        if fl is not None and fl.P.size:
+            D = fl.D if D is None else np.hstack([D, fl.D])
+            P = fl.P if P is None else np.concatenate([P, fl.P])
+            labels += [f"rigid motion: {name}" for name in fl.names]
+        return ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights, D=D, P=P, row_labels=_row_labels(op),
+                         force_labels=labels if D is not None else None, symmetric=True)
 
 
 def case_mesh(case: Case, punches: list[Punch] | tuple[()] = ()) -> ShellMesh:
@@ -425,10 +437,11 @@ def discretize(case: Case, contact_points: str = SolverOptions.contact_points, t
     with timer.stage("assembly"):
         A = model.stiffness(space)
         F = load_vector(space, case.loads)
-        red = Reduction.build(space, case.supports)
+        red = Reduction.build(space, case.supports, floating=bool(punches))
         op = contact_operator(space, punches, contact_points) if punches else None
+        floating = analyse_floating(space, red, op, F) if op is not None and red.motions.size else None
         return Discretization(space, A, F, red, red.reduce_matrix(A), red.reduce_vector(F), punches, op,
-                              None if op is None else op.B @ red.P)
+                              None if op is None else op.B @ red.P, floating)
 
 
 def solve(case: Case, method: str | None = None, backend: str | None = None,
@@ -529,21 +542,32 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
     info["solver_timings"] = dict(cs.timings)
     _check_finite("the displacements U", cs.U)
     _check_finite("the contact forces Λ", cs.Lambda)
+    delta, alpha = cs.delta, None
     if cs.delta is not None:
         _check_finite("the punch travels δ", cs.delta)
+        kf = len(op.force_punches)  # the travels, then a floating shell's rigid-motion amplitudes
+        delta, alpha = (cs.delta[:kf] if kf else None), cs.delta[kf:]
         for j, k in enumerate(op.force_punches):  # the same linear-theory range as an indentation
-            check_linear_range(float(cs.delta[j]), case.shell, f"punch.{k}.force",
+            check_linear_range(float(delta[j]), case.shell, f"punch.{k}.force",
                                f"the force {op.forces[j]:.4g} moves the punch past first contact by")
     with timer.stage("postprocess"):  # the gaps everywhere, penetration checks outside the rows
         U = red.expand(cs.U)
+        rigid = None
+        if d.floating is not None:  # U = elastic part + rigid part; the gauge removes the unrestrained motions
+            fl = d.floating
+            coefficients = fl.restrained.T @ (alpha if alpha is not None else np.zeros(0))
+            coefficients = coefficients - fl.gauge(space, U + fl.modes @ coefficients)
+            rigid = fl.modes @ coefficients
+            U = U + rigid
+            info["rigid_motion"] = fl.summary(coefficients)
         Lam = np.asarray(cs.Lambda, float)
         contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
-                                gap=op.gap(U, cs.delta), delta=cs.delta,
-                                outside=penetration_outside(space, punches, U, cs.delta),
-                                between=_penetration_between(space, punches, opts.contact_points, U, cs.delta),
-                                zone=contact_zone(space, punches, U, cs.delta))
-        contact.rim, contact.rim_lines = rim_line_force(space, punches, op, Lam, U, cs.delta, contact.zone)
-        sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam)
+                                gap=op.gap(U, delta), delta=delta,
+                                outside=penetration_outside(space, punches, U, delta),
+                                between=_penetration_between(space, punches, opts.contact_points, U, delta),
+                                zone=contact_zone(space, punches, U, delta))
+        contact.rim, contact.rim_lines = rim_line_force(space, punches, op, Lam, U, delta, contact.zone)
+        sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam, rigid=rigid)
     return _checked(Result(case=case, solution=sol, timings=timer.total(), info=info, contact=contact,
                            punches=punches, discretization=d))
 

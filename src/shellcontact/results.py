@@ -62,6 +62,13 @@ class ShellSolution:
     A: sp.csr_matrix  # full (unreduced) stiffness
     F: np.ndarray  # full load vector
     extra_forces: np.ndarray | None = None  # e.g. contact forces Bᵀ Λ in the balance A U = F + ...
+    #: the rigid part of U of a shell held by contact alone (floating.py): strains, energy and reactions are
+    #: those of the elastic part U − rigid (an interpolated rigid motion is not exactly stress-free in V_h)
+    rigid: np.ndarray | None = None
+
+    @property
+    def elastic(self) -> np.ndarray:
+        return self.U if self.rigid is None else self.U - self.rigid
 
     @property
     def shell(self) -> Shell:
@@ -88,7 +95,12 @@ class ShellSolution:
         return to_global(local, np.atleast_1d(np.asarray(phi, float)))
 
     def strains(self, x, phi, values: dict | None = None) -> np.ndarray:
-        return strains(values if values is not None else self.evaluate(x, phi), self.shell.radius)
+        """Strains of the elastic part (``values``: ``evaluate(x, phi)`` of U, already computed)."""
+        d = values if values is not None else self.evaluate(x, phi)
+        if self.rigid is not None:
+            ops = self.space.point_operators(x, self.shell.radius * np.asarray(phi, float), tuple(d))
+            d = {k: v - ops[k] @ self.rigid for k, v in d.items()}
+        return strains(d, self.shell.radius)
 
     def resultants(self, x, phi, values: dict | None = None) -> dict[str, np.ndarray]:
         """Stress resultants N11, N22, N12 (force/length) and M11, M22, M12 (moment/length).
@@ -108,8 +120,9 @@ class ShellSolution:
     # -- global quantities ----------------------------------------------------------------------
     @property
     def energy(self) -> float:
-        """Strain energy ½ a(U, U)."""
-        return 0.5 * float(self.U @ (self.A @ self.U))
+        """Strain energy ½ a(U, U) (of the elastic part)."""
+        U = self.elastic
+        return 0.5 * float(U @ (self.A @ U))
 
     @property
     def max_abs_w(self) -> float:
@@ -118,7 +131,7 @@ class ShellSolution:
 
     def reactions(self) -> np.ndarray:
         """Generalised support reactions R = A U − F − (other forces); zero at free dofs."""
-        R = self.A @ self.U - self.F
+        R = self.A @ self.elastic - self.F
         if self.extra_forces is not None:
             R -= self.extra_forces
         return R

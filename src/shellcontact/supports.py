@@ -8,7 +8,7 @@ On an edge φ = const the roles of x and s swap.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -129,8 +129,14 @@ class Reduction:
     fixed: np.ndarray
     free: np.ndarray  # full-vector dofs that are unknowns (one per column of P)
 
+    motions: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))  # free rigid motions (rows, mode basis)
+    gauge: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))  # dofs fixed by the gauge only
+
     @classmethod
-    def build(cls, space: ShellSpace, supports: Supports) -> Reduction:
+    def build(cls, space: ShellSpace, supports: Supports, floating: bool = False) -> Reduction:
+        """The reduction of ``supports``. Rigid motions they leave free are refused, unless ``floating``
+        (a contact problem, where punches may hold the shell): then they are kept in ``motions`` and
+        the gauge fixes one dof per free motion (``gauge_dofs``)."""
         n = space.ndofs
         master = np.arange(n)
         sign = np.ones(n)
@@ -140,6 +146,14 @@ class Reduction:
         fixed_mask = np.zeros(n, dtype=bool)
         fixed_mask[constrained_dofs(space, supports)] = True
         fixed_mask |= fixed_mask[master]  # a slave of a fixed master is fixed
+        motions = free_motions(space, np.nonzero(fixed_mask)[0])
+        gauge = np.zeros(0, dtype=int)
+        if motions.size and not floating:
+            raise InputError("supports", free_motion_message(motions, space.mesh.shell))
+        if motions.size:
+            gauge = gauge_dofs(space, motions, fixed_mask | (master != np.arange(n)))
+            fixed_mask[gauge] = True
+            fixed_mask |= fixed_mask[master]
         is_unknown = (master == np.arange(n)) & ~fixed_mask
         free = np.nonzero(is_unknown)[0]
         col = np.full(n, -1)
@@ -148,8 +162,7 @@ class Reduction:
         rows = np.nonzero(keep)[0]
         P = sp.csr_matrix((sign[keep], (rows, col[master[keep]])), shape=(n, free.size))
         fixed = np.nonzero(fixed_mask)[0]
-        check_rigid_motions(space, fixed)
-        return cls(P=P, fixed=fixed, free=free)
+        return cls(P=P, fixed=fixed, free=free, motions=motions, gauge=gauge)
 
     def reduce_matrix(self, A: sp.spmatrix) -> sp.csr_matrix:
         """Pᵀ A P; without periodic slaves P only selects the free dofs, so slice instead."""
@@ -174,27 +187,124 @@ RIGID_MOTIONS = (
 )
 
 
-def check_rigid_motions(space: ShellSpace, fixed: np.ndarray, tol: float = 1e-8) -> None:
-    """Raise if a combination of the six rigid motions (MODEL.md §2) satisfies every support.
-
-    Such a motion costs no energy, so the stiffness would be singular (coercivity (6.5) fails).
-    """
+def rigid_modes(space: ShellSpace) -> np.ndarray:
+    """(ndofs, 6): the interpolated rigid motions in the order of ``RIGID_MOTIONS``; rotations by 1/a, so that
+    every motion displaces the shell by about 1."""
     sh = space.mesh.shell
     cols = []
     for k in range(6):
         c, th = np.zeros(3), np.zeros(3)
         (c if k < 3 else th)[k % 3] = 1.0 if k < 3 else 1.0 / sh.radius
-        r = space.interpolate(rigid_motion(sh, c, th))
-        cols.append(r[fixed] / np.linalg.norm(r))
-    R = np.array(cols).T
+        cols.append(space.interpolate(rigid_motion(sh, c, th)))
+    return np.array(cols).T
+
+
+def free_motions(space: ShellSpace, fixed: np.ndarray, tol: float = 1e-8) -> np.ndarray:
+    """A basis (k, 6) of the combinations of the six rigid motions (MODEL.md §2) that satisfy every support:
+    the null space of the interpolated motions restricted to the fixed dofs, in reduced row echelon form so
+    that a motion free by itself appears alone (e.g. "translation along y")."""
+    R = rigid_modes(space)
+    R = R[fixed] / np.linalg.norm(R, axis=0)
     if R.shape[0] == 0:
-        raise InputError("supports", "no edge is supported: all six rigid-body motions are free")
-    _, sv, vt = np.linalg.svd(R, full_matrices=False)
-    if sv[-1] < tol * max(sv[0], 1e-300) or sv[-1] < tol:
-        combo = vt[-1]
-        names = [f"{c:+.2g} x {RIGID_MOTIONS[i]}" for i, c in enumerate(combo) if abs(c) > 1e-3]
-        raise InputError(
-            "supports",
-            "the supports leave a rigid-body motion free (" + ", ".join(names) + "); "
-            "clamp or support more edges, or add a symmetry plane",
-        )
+        return np.eye(6)
+    _, sv, vt = np.linalg.svd(R, full_matrices=True)
+    rank = int(np.sum((sv >= tol * max(sv[0], 1e-300)) & (sv >= tol)))
+    return _echelon(vt[rank:])
+
+
+def _echelon(N: np.ndarray) -> np.ndarray:
+    """Reduced row echelon form of the rows of N (a basis of the same space), tiny entries zeroed."""
+    N = N.copy()
+    row = 0
+    for col in range(N.shape[1]):
+        if row == N.shape[0]:
+            break
+        piv = row + int(np.argmax(np.abs(N[row:, col])))
+        if abs(N[piv, col]) < 1e-10:
+            continue
+        N[[row, piv]] = N[[piv, row]]
+        N[row] /= N[row, col]
+        for r in range(N.shape[0]):
+            if r != row:
+                N[r] -= N[r, col] * N[row]
+        row += 1
+    N[np.abs(N) < 1e-12] = 0.0
+    return N
+
+
+def gauge_dofs(space: ShellSpace, motions: np.ndarray, excluded: np.ndarray) -> np.ndarray:
+    """One dof per free motion, fixed to zero in the elastic part so that the reduced stiffness is regular
+    (a few fixed dofs remove the kernel, as for FETI's floating subdomains). Only tangential dofs (u, v at
+    the vertices) are candidates, never w. For each motion in turn (those the elements represent exactly, the
+    translation along and the rotation about x, first): among the candidates
+    where it moves most, the one that keeps the chosen rows of the motions best conditioned (the first in
+    mesh order on a tie; the next smaller movement if none keeps them independent). On a ring between
+    plates that is v at φ = 0 (rotation about x), 90° (translation along y) and 180° (translation along
+    z): points on planes of symmetry, where a symmetric solution satisfies the gauge by itself."""
+    if motions.size == 0:
+        return np.zeros(0, dtype=int)
+    v = np.arange(space.mesh.nvertices)
+    cand = np.concatenate([space.u_dofs(v), space.v_dofs(v)])
+    cand = np.sort(cand[~excluded[cand]])
+    # the motions P2 holds exactly (u = const, v = const) first: they move every vertex alike
+    motions = motions[np.argsort(np.any(motions[:, [1, 2, 4, 5]] != 0.0, axis=1), kind="stable")]
+    R = (rigid_modes(space) @ motions.T)[cand]  # (candidates, k)
+    scale = np.abs(R).max()
+    chosen: list[int] = []
+    for j in range(R.shape[1]):
+        size = np.round(np.abs(R[:, j]) / scale, 10)
+        for level in np.unique(size[size > 0.0])[::-1]:  # the largest movement first
+            group = np.flatnonzero(size == level)
+            rows = np.concatenate([np.broadcast_to(R[chosen, : j + 1], (group.size, len(chosen), j + 1)),
+                                   R[group, None, : j + 1]], axis=1)
+            sv = np.linalg.svd(rows, compute_uv=False)[:, -1]  # the best conditioned choice within the tie
+            if sv.max() > 1e-6 * scale:
+                chosen.append(int(group[np.argmax(sv)]))
+                break
+        else:
+            raise InputError("supports", "no tangential dof can carry the gauge of the free rigid motions")
+    return np.sort(cand[chosen])
+
+
+def describe_motion(coefficients: np.ndarray, radius: float) -> str:
+    """A combination of the six rigid motions in words: "translation along z", or
+    "translation along y + 0.5 x rotation about x (by 1/a)" for a mixture."""
+    c = np.asarray(coefficients, float)
+    c = c / np.max(np.abs(c))
+    parts = [(RIGID_MOTIONS[i], ci) for i, ci in enumerate(c) if abs(ci) > 1e-3]
+    if len(parts) == 1:
+        return parts[0][0]
+    return " + ".join(f"{ci:.3g} x {name}" for name, ci in parts) + f" (rotations by 1/a, a = {radius:g})"
+
+
+#: how to remove each rigid motion with a support or a plane of symmetry
+REMEDIES = (
+    "a symmetry plane x = const (supports.x_min = 'symmetry') or a clamped end",
+    "a symmetry plane y = 0 (model the half phi in [-90, 90] deg with phi edges 'symmetry')",
+    "a symmetry plane z = 0 (model the half phi in [0, 180] deg with phi edges 'symmetry')",
+    "a symmetry plane through the axis (phi edges 'symmetry') or supported phi edges",
+    "a symmetry plane x = const (supports.x_min = 'symmetry') or supported ends",
+    "a symmetry plane x = const (supports.x_min = 'symmetry') or supported ends",
+)
+
+
+def remedy(coefficients: np.ndarray) -> str:
+    """The supports that remove a rigid motion (that of its largest component)."""
+    return REMEDIES[int(np.argmax(np.abs(coefficients)))]
+
+
+def free_motion_message(motions: np.ndarray, shell) -> str:
+    names = "; ".join(describe_motion(m, shell.radius) for m in motions)
+    if motions.shape[0] == 6:
+        return f"no edge is supported: all six rigid-body motions are free ({names})"
+    return (f"the supports leave {motions.shape[0]} rigid-body motion{'s' if motions.shape[0] > 1 else ''} free "
+            f"({names}); clamp or support more edges, or add a symmetry plane; a shell held by contact "
+            "alone needs punches that restrain these motions")
+
+
+def check_rigid_motions(space: ShellSpace, fixed: np.ndarray, tol: float = 1e-8) -> None:
+    """Raise if a combination of the six rigid motions (MODEL.md §2) satisfies every support, naming every
+    free motion. Such a motion costs no energy, so the stiffness would be singular (coercivity (6.5) fails)."""
+    motions = free_motions(space, fixed, tol)
+    if motions.size:
+        raise InputError("supports", free_motion_message(motions, space.mesh.shell))

@@ -306,6 +306,24 @@ class Workspace:
             cand = np.flatnonzero(ahead)
             t = g[cand] / (-s * qp.D[cand, j])
             mask[cand[np.argmin(t)]] = True
+        return self._hold_every_column(mask, g)
+
+    def _hold_every_column(self, mask: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """While the columns of D on ``mask`` are dependent (e.g. a floating shell's translation and the
+        travel of the punch that pushes it: only the other punch's rows tell them apart), add the row
+        nearest to contact among those that see a direction y with D_I y = 0."""
+        D = self.qp.D
+        for _ in range(self.qp.k):
+            DI = D[mask]
+            _, sv, vt = np.linalg.svd(DI, full_matrices=True)
+            rank = int(np.sum(sv > 1e-10 * max(float(sv[0]) if sv.size else 0.0, 1e-300)))
+            if rank == self.qp.k:
+                break
+            seen = np.abs(D @ vt[rank:].T).max(axis=1)
+            cand = np.flatnonzero(self.live & ~mask & (seen > 1e-10 * np.abs(D).max()))
+            if cand.size == 0:
+                break
+            mask[cand[np.argmin(g[cand])]] = True
         return mask
 
     # -- result ---------------------------------------------------------------------------
