@@ -433,3 +433,15 @@ def test_final_refinement_recovers_from_gaps_spoilt_on_the_face(name: str) -> No
     _assert_kkt(sol)
     assert np.array_equal(sol.active, ref.active)
     assert _rel(sol.Lambda, ref.Lambda) <= 1e-8
+
+
+def test_active_set_stopped_while_growing_names_the_iteration_limit():
+    """A working set that only grows (θ > 0 adds the deepest violations a few at a time) and meets the
+    iteration limit is not a failure of the method: the error says so and names the key to raise; with
+    the limit raised the same problem solves."""
+    qp = plate_qp(N=32, radius=5.0, indentation=0.02, zone=0.45)  # a flat sphere: a wide zone, rows join 2 at a time
+    with pytest.raises(SolverError, match=r"still growing .*\[solver\] max_iterations") as exc:
+        solve_active_set(qp, growth=0.9, max_add=2, max_iterations=6)
+    assert exc.value.iterations == 6
+    sol = solve_active_set(qp, growth=0.9, max_add=2, max_iterations=1000)
+    assert sol.iterations > 6

@@ -22,7 +22,8 @@ class InputError(ShellContactError, ValueError):
 class SolverError(ShellContactError, RuntimeError):
     """A solve did not reach its tolerance; ``residuals`` says how far it got."""
 
-    def __init__(self, message: str, residuals: dict | None = None, iterations: int | None = None):
+    def __init__(self, message: str, residuals: dict | None = None, iterations: int | None = None,
+                 hint: str = ""):
         self.residuals = dict(residuals or {})
         self.iterations = iterations
         detail = ", ".join(f"{k}={v:.3e}" for k, v in self.residuals.items())
@@ -31,4 +32,6 @@ class SolverError(ShellContactError, RuntimeError):
             text += f" after {iterations} iterations"
         if detail:
             text += f" ({detail})"
+        if hint:  # what to do about it
+            text += f"; {hint}"
         super().__init__(text)

@@ -126,8 +126,13 @@ def solve_active_set(
             return ws.finish_exact(lam_f, delta_f, tol, "active-set", it + its, history,
                                    info={"fallback": "dual-mprgp", "fallback_iterations": its})
         I = I_new
+    recent = history[-5:]
+    growing = all(h["added"] > 0 and h["removed"] == 0 for h in recent)
+    hint = (f"the working set was still growing ({recent[-1]['active']} rows, {recent[-1]['added']} added in the "
+            "last iteration): raise the iteration limit ([solver] max_iterations)") if growing else ""
     raise SolverError(
         f"active-set: no convergence to tolerance {tol:g}",
         residuals={"negative_force": v_lam, "penetration": v_gap},
         iterations=max_iterations,
+        hint=hint,
     )
