@@ -41,6 +41,7 @@ COARSE = {
     "pinched_cylinder_full": ("mesh.nx=8", "mesh.nphi=24", "mesh.refine=0"),
     "pressurized_cylinder": ("mesh.nx=20", "mesh.nphi=1", "mesh.refine=0"),
     "ring_stiffness": ("mesh.nx=4", "mesh.nphi=32", "mesh.refine=0"),
+    "pipe_rollers": ("mesh.nx=32", "mesh.nphi=24", "mesh.refine=0", "mesh.pattern=crossed"),
     "vessel_saddles": ("mesh.nx=20", "mesh.nphi=32", "mesh.refine=0", "mesh.pattern=crossed"),
 }
 FILES = sorted(EXAMPLES.glob("*.toml"))
@@ -241,6 +242,28 @@ def test_vessel_on_two_saddles_carries_its_weight_with_the_peak_stress_at_a_horn
     assert min(abs(abs(peak["at"]["x"]) - f) for f in faces) <= 1e-9, peak
     # the horn's stress is a concentration: well above the membrane hoop stress p a/t of the pressure
     assert peak["von_mises_max"] > 2 * raw["loads"]["normal"] * sh.radius / sh.thickness
+
+
+def test_pipe_on_two_rollers_loaded_by_a_third():
+    """Three-point bending of a pipe held by its rollers alone: the top roller carries the prescribed force,
+    the lower rollers together the applied force and each half of it (the setup is symmetric about x = 0),
+    all vertical; the pipe bends down at mid-span (the crown under the roller descends most)."""
+    res = solved("pipe_rollers")
+    s = res.summary()
+    F = res.case.raw["punch"][0]["force"]
+    top, left, right = s["contact"]
+    print(f"\nrollers: top {top['force']}, left {left['force']}, right {right['force']}, travel {top['punch_travel']}")
+    assert top["force"][2] == pytest.approx(-F, rel=1e-10)
+    # the restrained motions' equilibrium (translation along z, rotation about y) is exact in the QP
+    assert left["force"][2] + right["force"][2] == pytest.approx(F, rel=1e-10)
+    assert left["force"][2] == pytest.approx(F / 2, rel=1e-8) and right["force"][2] == pytest.approx(F / 2, rel=1e-8)
+    assert all(abs(c["force"][k]) <= 1e-8 * F for c in s["contact"] for k in (0, 1))
+    assert s["rigid_motion"]["restrained"] == ["translation along z", "rotation about y"]
+    crown, bottom_mid, on_roller = w_at(res, [0.0, 0.0, -0.4], [90.0, 270.0, 270.0])
+    assert crown < 0 and bottom_mid > 0  # both move down (w outward: down at the bottom)
+    assert -crown >= bottom_mid  # the dent under the roller adds to the bending
+    assert abs(on_roller) <= 1e-6 * bottom_mid
+    assert top["punch_travel"] == pytest.approx(-crown, rel=1e-8)
 
 
 def test_force_indentation_sweep_is_monotone(tmp_path):
