@@ -6,7 +6,7 @@ then fixes one tangential dof per free motion (``supports.gauge_dofs``), which m
 stiffness regular, and each free motion is one of three kinds (docs/solvers.md, "Shells held by
 contact alone"):
 
-* **restrained** — some constraint row where a punch touches or overlaps the undeformed shell sees it
+* **restrained** — some constraint row where a punch first touches the undeformed shell sees it
   (B R c ≠ 0 there: ``first_contact_rows``): its amplitude α is an unknown of the QP exactly like the
   travel of a force-controlled punch, a column B R of D with the load Rᵀ F in P; its KKT row is the
   rigid mode's equilibrium Rᵀ(F + BᵀΛ) = 0;
@@ -113,16 +113,18 @@ def analyse(space: ShellSpace, reduction: Reduction, op: ContactOperator, F: np.
 
 
 def first_contact_rows(op: ContactOperator, radius: float) -> np.ndarray:
-    """The rows where each punch touches or overlaps the undeformed shell: G ≤ max(min G, 0) + 1e-8 a. A
-    motion restrained only at rows farther away (the tilted normals beside a line contact) is not held:
-    the linearised gaps there would allow a small amount of it either way, and the solution would not be
-    unique (the rotation of a ring about its axis between frictionless plates)."""
+    """The rows where each punch first touches the undeformed shell: its deepest rows, G ≤ min G + 1e-8 a
+    (touching, overlapping by a prescribed indentation, or nearest when it starts apart). A motion
+    restrained only at rows farther away (the tilted normals beside a line contact, or the rest of the band
+    an indented punch overlaps) is not held: the linearised gaps there would allow a small amount of it
+    either way, and the solution would not be unique (the rotation of a ring about its axis between
+    frictionless plates)."""
     rows = []
     for k in range(len(op.punches)):
         r = op.rows(k)
         if r.size:
             g = op.G[r]
-            rows.append(r[g <= max(float(g.min()), 0.0) + 1e-8 * radius])
+            rows.append(r[g <= float(g.min()) + 1e-8 * radius])
     return np.concatenate(rows) if rows else np.zeros(0, dtype=int)
 
 

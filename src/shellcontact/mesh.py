@@ -57,8 +57,13 @@ def graded_nodes(
         raise InputError("mesh.n", f"needs at least 1 interval, got {n}")
     if ratio < 1.0:
         raise InputError("mesh.grading", f"ratio must be >= 1, got {ratio}")
-    cuts = sorted({start, stop, *[c for c in (*focus, *required) if start < c < stop]})
     length = stop - start
+    cuts = []
+    for c in sorted({start, stop, *[c for c in (*focus, *required) if start < c < stop]}):
+        # one node for lines equal up to round-off (a node line given in the case and found from a punch)
+        if not cuts or c - cuts[-1] > 1e-9 * abs(length):
+            cuts.append(c)
+    cuts[-1] = stop
     nodes = [np.array([start])]
     for lo, hi in zip(cuts[:-1], cuts[1:]):
         k = max(1, int(round(n * (hi - lo) / length)))

@@ -215,7 +215,7 @@ def dual_core(
                 if gtr[ws.live].min(initial=0.0) >= -tol * ws.length_scale(gtr):
                     history.append({"iteration": it0 + total, "outer": outer, "step": "polish", "free": int(idx.size)})
                     return trial, d, total
-        fb = np.linalg.norm(D.T @ lam + P) / max(np.linalg.norm(P), 1e-300)
+        fb = np.linalg.norm(D.T @ lam + P) / max(np.linalg.norm(P), np.linalg.norm(abs(D).T @ lam), 1e-300)
         history.append({"iteration": it0 + total, "outer": outer, "force_balance": float(fb)})
         if fb <= tol:
             return lam, delta, total

@@ -8,7 +8,7 @@ Residuals (``kkt_residuals``), with g = G + BU (+ Dδ) and r = AU − F − Bᵀ
 * complementarity   max_i |Λ_i g_i| / W,  W = max(½UᵀAU, |FᵀU|, |Pᵀδ|): the largest work
                     done by one nodal force across its gap, relative to the energy scale
 * duality_gap       |𝓔(U) − q(Λ)| / |𝓔(U)|, q(Λ) = −½(F+BᵀΛ)ᵀA⁻¹(F+BᵀΛ) − ΛᵀG
-* force_balance     ‖DᵀΛ + P‖ / ‖P‖   (force control only)
+* force_balance     ‖DᵀΛ + P‖ / max(‖P‖, ‖|D|ᵀΛ‖)   (force control and floating shells)
 
 The gap is evaluated through the exact identity 𝓔(U) − q(Λ) = Λᵀg + ½ rᵀA⁻¹r − (P + DᵀΛ)ᵀδ,
 which avoids subtracting two nearly equal energies (``dual_value`` computes q directly; the
@@ -85,7 +85,8 @@ def evaluate(
         fb = qp.D.T @ Lambda + qp.P
         gap_value -= float(fb @ delta)
         res["duality_gap"] = abs(gap_value) / max(abs(energy), TINY)
-        fscale = max(np.linalg.norm(qp.P), np.linalg.norm(qp.D.T @ Lambda), TINY)
+        # gross, not net: the net DᵀΛ of a floating shell's rigid mode without load (P = 0) is round-off
+        fscale = max(np.linalg.norm(qp.P), np.linalg.norm(abs(qp.D).T @ np.abs(Lambda)), TINY)
         res["force_balance"] = float(np.linalg.norm(fb) / fscale)
     else:
         res["duality_gap"] = abs(gap_value) / max(abs(energy), TINY)

@@ -158,7 +158,8 @@ def _newton(ws: Workspace, eps: float, mu: np.ndarray, delta: np.ndarray | None,
     for it in range(1, max_iterations + 1):
         rhs_norm = float(np.linalg.norm(qp.F + qp.B.T @ lam))
         stat = float(np.linalg.norm(qp.B.T @ (mu - lam)) / max(rhs_norm, TINY))
-        fb = float(np.linalg.norm(D.T @ lam + P) / max(np.linalg.norm(P), TINY)) if k else 0.0
+        fscale = max(np.linalg.norm(P), np.linalg.norm(abs(D).T @ lam), TINY) if k else TINY
+        fb = float(np.linalg.norm(D.T @ lam + P) / fscale) if k else 0.0
         I = live & (g < 0)
         if k:
             I = ws.first_contact(I, g)
