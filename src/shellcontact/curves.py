@@ -28,6 +28,8 @@ Schur blocks (MODEL.md §8), and its Result is that of ``analysis.solve`` of its
   solved for rows beyond the screened ones are kept for the next point. The final result is the KKT
   point at ``[solver] tolerance`` of a strictly convex QP, which is unique: it does not depend on the
   start beyond the tolerance and round-off (the tests hold fields and forces to 1e-8 of their size).
+  A warm point on a shared bordered factorisation stops at its KKT check on the true gaps, without the
+  lone solve's extra face refinement (``SchurComplement.refine_converged``): two solves fewer per point.
   ``warm_start=False``: every point runs exactly as ``analysis.solve`` of its case alone, on a
   factorisation of the same matrix, so its Result is bit-identical to it (for a backend whose
   factorisation and solves are deterministic: the single-threaded ones here are) and independent of the
@@ -145,6 +147,9 @@ class SharedFactorizer(Factorizer):
             return fac, None
         if not self.keep_columns:  # the columns a previous point solved for: a cold start has none
             fac.schur.extra = None
+        # a warm point stops at its KKT check (tolerance met on the true gaps): the extra face refinement
+        # and its two solves per point were half the cost of a force curve's points; a cold one runs as solve
+        fac.schur.refine_converged = not self.keep_columns
         return fac, rows
 
 
@@ -253,6 +258,8 @@ class ProjectedSchur:
     B: sp.csr_matrix
     S: np.ndarray
     extra: tuple[sp.csr_matrix, np.ndarray] | None = field(default=None, repr=False)
+    #: S is W X Wᵀ, off by round-off: the face refinement on the true gaps stays (``SchurComplement``)
+    refine_converged: bool = True
 
     @property
     def m(self) -> int:

@@ -45,6 +45,10 @@ class SchurComplement:
     #: the caller that solved for it (``solvers.schur.Workspace``) so that a later caller whose rows
     #: extend [B; R] reuses it
     extra: tuple[sp.csr_matrix, np.ndarray] | None = field(default=None, repr=False)
+    #: whether ``solvers.schur.Workspace.finish_exact`` makes one face refinement on the true gaps even when
+    #: its KKT check already passes (the dense S differs from the solves' by round-off); a warm-started
+    #: curve (``curves.solve_family``) turns it off: its points stop at the KKT check, two solves fewer each
+    refine_converged: bool = True
 
     @classmethod
     def from_bordered(cls, B: sp.csr_matrix, rho: float, T: np.ndarray) -> SchurComplement | None:

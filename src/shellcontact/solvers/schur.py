@@ -73,7 +73,8 @@ class Workspace:
         #: S[:, m0:] for the rows after the dense Schur complement's m0 rows (None: there are none)
         self.extra: np.ndarray | None = None
         #: one face refinement on the true gaps after convergence (finish_exact); on with the dense S
-        self.extra_refinement = self.dense_schur is not None
+        #: unless its owner turned it off (``SchurComplement.refine_converged``)
+        self.extra_refinement = self.dense_schur is not None and self.dense_schur.refine_converged
         self.U0 = self.solve(qp.F) if np.any(qp.F) else np.zeros(qp.n)  # no load but the punch: U0 = 0
         self.BU0 = qp.B @ self.U0
         self.c0 = qp.G + self.BU0
