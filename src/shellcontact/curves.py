@@ -54,6 +54,7 @@ from .case import Case, expect_case
 from .contact import ContactOperator, contact_operator
 from .errors import InputError
 from .linalg import BACKENDS, Factorization, factorize
+from .linalg.bordered import SchurRows
 from .linalg.sparse import same_entries
 from .mesh import node_lines
 from .options import SolverOptions
@@ -251,22 +252,14 @@ class Cartesian:
 
 
 @dataclass
-class ProjectedSchur:
+class ProjectedSchur(SchurRows):
     """S = B A⁻¹ Bᵀ of one point's screened rows B, from the family's ``Cartesian`` X: what
     ``schur.Workspace`` reads of a ``linalg.SchurComplement`` (m, matches, columns, extra)."""
 
-    B: sp.csr_matrix
     S: np.ndarray
     extra: tuple[sp.csr_matrix, np.ndarray] | None = field(default=None, repr=False)
     #: S is W X Wᵀ, off by round-off: the face refinement on the true gaps stays (``SchurComplement``)
     refine_converged: bool = True
-
-    @property
-    def m(self) -> int:
-        return self.B.shape[0]
-
-    def matches(self, B: sp.spmatrix) -> bool:
-        return same_entries(B, self.B)
 
     def columns(self, cols: np.ndarray) -> np.ndarray:
         return self.S[:, np.asarray(cols, dtype=np.int64)]

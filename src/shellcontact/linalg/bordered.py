@@ -33,11 +33,26 @@ from .sparse import same_entries
 
 
 @dataclass
-class SchurComplement:
+class SchurRows:
+    """The rows ``B`` a dense S = B A⁻¹ Bᵀ is held for: what ``solvers.schur.Workspace`` checks before
+    it reads columns of S (``SchurComplement`` here, ``curves.ProjectedSchur``)."""
+
+    B: sp.csr_matrix
+
+    @property
+    def m(self) -> int:
+        return self.B.shape[0]
+
+    def matches(self, B: sp.spmatrix) -> bool:
+        """Whether ``B`` is the matrix this Schur complement was built for (same entries)."""
+        return same_entries(B, self.B)
+
+
+@dataclass
+class SchurComplement(SchurRows):
     """S = B A⁻¹ Bᵀ for the rows ``B`` (unscaled, as given) through the dense Cholesky factor of
     T = (ρ⁻¹I + S)⁻¹."""
 
-    B: sp.csr_matrix
     rho: float
     chol: tuple
     seconds: float = 0.0
@@ -59,14 +74,6 @@ class SchurComplement:
         except (np.linalg.LinAlgError, sla.LinAlgError):
             return None
         return cls(B=B, rho=rho, chol=chol)
-
-    @property
-    def m(self) -> int:
-        return self.B.shape[0]
-
-    def matches(self, B: sp.spmatrix) -> bool:
-        """Whether ``B`` is the matrix this Schur complement was built for (same entries)."""
-        return same_entries(B, self.B)
 
     def columns(self, cols: np.ndarray) -> np.ndarray:
         """S[:, cols] = T⁻¹[:, cols] − ρ⁻¹ I[:, cols]  (m × len(cols))."""
