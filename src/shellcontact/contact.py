@@ -224,7 +224,7 @@ def _seam_twins(space: ShellSpace) -> tuple[np.ndarray, np.ndarray] | None:
     return hi, lo
 
 
-def _on_body(space: ShellSpace, punch: Punch, x: np.ndarray, s: np.ndarray, tol: float = 0.0) -> np.ndarray:
+def facing_body(space: ShellSpace, punch: Punch, x: np.ndarray, s: np.ndarray, tol: float = 0.0) -> np.ndarray:
     """Contact-surface points at (x, s) opposite a punch of finite extent (all True for an unbounded one)."""
     sh = space.mesh.shell
     if punch.extent is None:
@@ -236,7 +236,7 @@ def _on_body(space: ShellSpace, punch: Punch, x: np.ndarray, s: np.ndarray, tol:
 def _zone_elements(space: ShellSpace, punch: Punch) -> np.ndarray:
     m = space.mesh
     c = m.p[:, m.t].mean(axis=1)
-    return np.nonzero(punch.zone.contains(c[0], c[1] / m.shell.radius) & _on_body(space, punch, c[0], c[1]))[0]
+    return np.nonzero(punch.zone.contains(c[0], c[1] / m.shell.radius) & facing_body(space, punch, c[0], c[1]))[0]
 
 
 def _vertex_rows(space: ShellSpace, punch: Punch, twins) -> tuple[np.ndarray, np.ndarray]:
@@ -248,7 +248,7 @@ def _vertex_rows(space: ShellSpace, punch: Punch, twins) -> tuple[np.ndarray, np
     w = np.zeros(nv)
     np.add.at(w, m.t[:, elems].ravel(), np.repeat(area[None, :] / 3.0, 3, axis=0).ravel())
     in_zone = punch.zone.contains(m.p[0], m.p[1] / m.shell.radius, tol=m._tol())
-    in_zone &= _on_body(space, punch, m.p[0], m.p[1], tol=m._tol())
+    in_zone &= facing_body(space, punch, m.p[0], m.p[1], tol=m._tol())
     in_zone[m.t[:, elems].ravel()] = True
     if twins is not None:
         slave, master = twins
@@ -475,10 +475,9 @@ def contact_zone(space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, del
         step = float(np.asarray(delta, float)[forced.index(k)]) if p.mode == "force" and delta is not None else None
         gap = linearised_gap(sh, p, x, phi, {q: d[q].ravel() for q in GAP_QUANTITIES}, step or 0.0)
         tol = zone_tolerance(p, step, rel_gap)
-        points = sh.point(x, phi, p.zeta(sh, x, phi))
-        inside = p.zone.contains(x, phi) & p.on_body(points)
+        inside = p.zone.contains(x, phi) & facing_body(space, p, x, s.ravel())
         if tol == 0.0 and inside.any():  # a fixed punch just touching: no travel, scale by the motion toward it
-            Z, _ = p.Z(points)
+            Z, _ = p.Z(sh.point(x, phi, p.zeta(sh, x, phi)))
             tol = rel_gap * float(np.max(np.abs(gap - Z)[inside]))
         touching = (gap <= tol) & inside
         area = float(((np.abs(det)[:, None] * W[None, :]).ravel())[touching].sum())

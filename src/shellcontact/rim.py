@@ -22,7 +22,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .contact import GAP_QUANTITIES, ContactOperator, linearised_gap
+from .contact import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
 from .punches import Punch
 from .spaces import ShellSpace
 
@@ -77,7 +77,7 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
     fields = {q: op @ U for q, op in ops.items()}
     f = (linearised_gap(sh, p, X.ravel(), P.ravel(), fields, step) - tol).reshape(X.shape)
     # off a finite body (punch extent) nothing touches either
-    off = ~p.on_body(sh.point(X.ravel(), P.ravel(), p.zeta(sh, X.ravel(), P.ravel()))).reshape(X.shape)
+    off = ~facing_body(space, p, X.ravel(), a * P.ravel()).reshape(X.shape)
     f[off] = float(np.max(np.abs(f))) + 1.0
     # outside the candidate zone nothing touches: a border of "not touching" closes the rim along the zone's
     # edges — except across the seam of a zone that runs all the way round a full cylinder
