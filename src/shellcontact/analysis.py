@@ -29,7 +29,7 @@ import scipy.sparse as sp
 from . import model
 from .arguments import expect_callable, expect_choice
 from .case import Case, expect_case
-from .contact import ContactOperator, contact_operator, contact_zone, penetration_outside
+from .contact import ContactOperator, contact_operator, contact_zone, penetration_outside, row_flexibility
 from .errors import InputError, SolverError
 from .floating import Floating
 from .floating import analyse as analyse_floating
@@ -401,6 +401,9 @@ class Discretization:
     operator: ContactOperator | None  # None without punches
     Br: sp.csr_matrix | None  # B P
     floating: Floating | None = None  # the free rigid motions when contact alone holds the shell
+    #: |Ar| (``ContactQP.abs_A``), computed once for every QP of this discretisation and of copies of it
+    #: (``dataclasses.replace`` keeps the dict: the points of a curve share their stiffness)
+    shared: dict = field(default_factory=dict, repr=False, compare=False)
 
     def qp(self) -> ContactQP:
         """The reduced contact QP of MODEL.md §8; a floating shell's restrained rigid motions are unknowns
@@ -415,8 +418,13 @@ class Discretization:
             D = fl.D if D is None else np.hstack([D, fl.D])
             P = fl.P if P is None else np.concatenate([P, fl.P])
             labels += [f"rigid motion: {name}" for name in fl.names]
-        return ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights, D=D, P=P, row_labels=_row_labels(op),
-                         force_labels=labels if D is not None else None, symmetric=True)
+        qp = ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights, D=D, P=P, row_labels=_row_labels(op),
+                       force_labels=labels if D is not None else None, symmetric=True,
+                       flexibility=row_flexibility(self.space.mesh.shell, op))
+        if "abs_A" not in self.shared:
+            self.shared["abs_A"] = qp.abs_A
+        qp._abs_A = self.shared["abs_A"]
+        return qp
 
 
 def case_mesh(case: Case, punches: list[Punch] | tuple[()] = ()) -> ShellMesh:

@@ -51,7 +51,7 @@ import scipy.sparse as sp
 from .analysis import Discretization, Factorizer, Result, Timer, discretize, solve_discretized
 from .arguments import expect_callable, expect_choice
 from .case import Case, expect_case
-from .contact import ContactOperator, contact_operator
+from .contact import ContactOperator, contact_operator, point_flexibility
 from .errors import InputError
 from .linalg import BACKENDS, Factorization, factorize
 from .linalg.bordered import SchurRows
@@ -141,7 +141,8 @@ class SharedFactorizer(Factorizer):
                 if shared is not None:
                     return shared, rows
             self.bordered = None  # the previous border's factors go before the new ones are built
-            fac = factorize_contact(qp.A, border, opts.backend, min_unknowns=min_unknowns)
+            fac = factorize_contact(qp.A, border, opts.backend, min_unknowns=min_unknowns,
+                                    flexibility=None if qp.flexibility is None else qp.flexibility[rows])
             self.built += 1
             self.bordered = (border, fac)
         if fac.schur is None:  # T not positive definite: A's factors alone, no screening (as solve does)
@@ -162,8 +163,9 @@ def _same_borders(operators: list[ContactOperator | None]) -> bool:
 
 
 def _row_key(op: ContactOperator, i: int) -> tuple:
-    """The contact point of row i: its vertex or edge and its surface (equal keys, equal Cartesian rows)."""
-    return int(op.vertex[i]), int(op.facet[i]), float(op.zeta[i])
+    """The contact point of row i: its vertex or edge and its surface (equal keys, equal Cartesian rows),
+    then its (x, φ)."""
+    return int(op.vertex[i]), int(op.facet[i]), float(op.zeta[i]), float(op.x[i]), float(op.phi[i])
 
 
 class Cartesian:
@@ -221,7 +223,9 @@ class Cartesian:
         if not borders(qp.n, 3 * M, opts.backend, min_unknowns=min_unknowns):
             return
         R = sp.vstack([sp.vstack(b) for b in blocks]).tocsr() @ self.reduction.P
-        fac = factorize_contact(qp.A, R, opts.backend, min_unknowns=min_unknowns)
+        x, phi = np.array([k[3] for k in self._keys]), np.array([k[4] for k in self._keys])
+        fac = factorize_contact(qp.A, R, opts.backend, min_unknowns=min_unknowns,
+                                flexibility=point_flexibility(self.space.mesh.shell, x, phi))
         self.factorizations += 1
         if fac.schur is None:
             return

@@ -297,11 +297,16 @@ def stiffness(space: ShellSpace, order: int = 10, parts: tuple[str, ...] = ("mem
     return A
 
 
-def field_derivatives(space: ShellSpace, U: np.ndarray, elements: np.ndarray, X: np.ndarray) -> dict[str, np.ndarray]:
-    """The QUANTITIES of the discrete field U at reference points X in ``elements``."""
+def field_derivatives(space: ShellSpace, U: np.ndarray, elements: np.ndarray, X: np.ndarray,
+                      quantities: tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
+    """The QUANTITIES (or those named in ``quantities``) of the discrete field U at reference points X in
+    ``elements``."""
     basis = space.element_basis(elements, X)
     coeff = U[space.element_dofs[:, elements]]  # (33, n)
-    return {k: np.einsum("bnq,bn->nq", v, coeff) for k, v in basis.items()}
+    # only the rows of the field a quantity belongs to are nonzero (``ShellSpace.element_basis``)
+    rows = {"u": slice(0, 6), "v": slice(6, 12), "w": slice(12, 33)}
+    return {k: np.einsum("bnq,bn->nq", basis[k][rows[k[0]]], coeff[rows[k[0]]])
+            for k in (quantities or basis)}
 
 
 def energy_norm_sq(space: ShellSpace, fields_error, order: int = 10) -> float:

@@ -9,6 +9,7 @@ respect to the arc-length chart (x, s).
 from __future__ import annotations
 
 import hashlib
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -25,8 +26,10 @@ from .mesh import ShellMesh
 
 W_KINDS = ("w", "w_x", "w_s", "w_xx", "w_xs", "w_ss")
 QUANTITIES = ("u", "u_x", "u_s", "v", "v_x", "v_s", "w", "w_x", "w_s", "w_xx", "w_xs", "w_ss")
-#: evaluations a memo keeps (the oldest goes first)
+#: evaluations a memo keeps (the least recently used goes first: a curve's points evaluate the same zone
+#: basis at every point and new rim points at each, which must not push the zone basis out)
 MEMO_ENTRIES = 16
+_MEMO_LOCK = threading.Lock()
 
 
 @dataclass
@@ -108,13 +111,19 @@ class ShellSpace:
 
     def memoized(self, key: tuple, compute: Callable[[], Any]) -> Any:
         """``compute()``, kept in ``memo`` under ``key`` when the memo is on (its values are read only)."""
-        if self.memo is None:
+        memo = self.memo
+        if memo is None:
             return compute()
-        if key not in self.memo:
-            while len(self.memo) >= MEMO_ENTRIES:
-                self.memo.pop(next(iter(self.memo)))
-            self.memo[key] = compute()
-        return self.memo[key]
+        with _MEMO_LOCK:  # points of a family may be post-processed in threads (``curves``)
+            if key in memo:
+                memo[key] = value = memo.pop(key)  # the most recently used goes last
+                return value
+        value = compute()
+        with _MEMO_LOCK:
+            memo[key] = value
+            while len(memo) > MEMO_ENTRIES:
+                memo.pop(next(iter(memo)))
+        return value
 
     def element_basis(self, elements: np.ndarray, X: np.ndarray) -> dict[str, np.ndarray]:
         """All 33 element basis functions of V_h at reference points.

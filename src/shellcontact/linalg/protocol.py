@@ -41,9 +41,11 @@ class Factorization(ABC):
     upper_triangle: ClassVar[bool] = False
 
     def __init__(self, A: sp.csr_matrix, scale: np.ndarray, As: sp.csr_matrix,
-                 border: sp.csr_matrix | None = None, refine_steps: int = 3) -> None:
+                 border: sp.csr_matrix | None = None, refine_steps: int = 3,
+                 border_flexibility: float | None = None) -> None:
         """Factorise ``As`` = S A S (``sparse.equilibrate(A, upper=self.upper_triangle)`` with its
-        ``scale``), bordered by ``border`` (rows of A's size, unscaled) if given."""
+        ``scale``), bordered by ``border`` (rows of A's size, unscaled) if given, with the weight
+        ``bordered.border_weight(Bs, border_flexibility)``."""
         self.A = A
         self.scale = scale
         self.refine_steps = refine_steps
@@ -58,7 +60,7 @@ class Factorization(ABC):
             self._factor(As)
         else:
             Bs = (border @ sp.diags(scale)).tocsr()
-            rho = border_weight(Bs)
+            rho = border_weight(Bs, border_flexibility)
             t0 = time.perf_counter()
             T = self._factor_bordered(As, Bs, rho)
             t1 = time.perf_counter()

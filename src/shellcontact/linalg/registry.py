@@ -9,6 +9,7 @@ import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError, SolverError
@@ -81,17 +82,21 @@ def resolve_backend(name: str | None, where: str = "solver.backend") -> str:
     return name
 
 
-def factorize(A: sp.spmatrix, backend: str = "auto", border: sp.spmatrix | None = None) -> Factorization:
+def factorize(A: sp.spmatrix, backend: str = "auto", border: sp.spmatrix | None = None,
+              border_flexibility: float | None = None) -> Factorization:
     """Equilibrate and factorise the SPD matrix A (MODEL.md §8: A symmetric positive definite).
 
     ``border``: rows B (m × n) whose Schur complement S = B A⁻¹ Bᵀ the factorisation also yields
     (``Factorization.schur``, ``bordered``); only for backends with ``supports_schur`` (InputError
-    otherwise)."""
+    otherwise). ``border_flexibility``: the typical size of S_ii if known; the border's weight is then
+    ρ = 1/it (``bordered.border_weight``)."""
     name = resolve_backend(backend)
     cls = BACKENDS[name].factorization
     A = sp.csr_matrix(A, dtype=float)
     if A.shape[0] != A.shape[1]:
         raise InputError("matrix", f"must be square, got {A.shape}")
+    if border_flexibility is not None and not (np.isfinite(border_flexibility) and border_flexibility > 0):
+        raise InputError("border_flexibility", f"must be a positive number, got {border_flexibility!r}")
     if border is not None:
         border = sp.csr_matrix(border, dtype=float)
         if border.shape[1] != A.shape[0]:
@@ -100,7 +105,7 @@ def factorize(A: sp.spmatrix, backend: str = "auto", border: sp.spmatrix | None 
             raise InputError("border", f"the {name} backend does not compute Schur complements")
     scale, As = equilibrate(A, upper=cls.upper_triangle)
     try:
-        return cls(A, scale, As, border)
+        return cls(A, scale, As, border, border_flexibility=border_flexibility)
     except SolverError as exc:
         raise SolverError(
             f"{name} factorisation failed: {exc} (are the supports enough to fix all rigid motions?)"

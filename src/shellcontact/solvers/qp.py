@@ -36,6 +36,9 @@ class ContactQP:
     P: np.ndarray | None = None
     row_labels: list[str] | None = None
     force_labels: list[str] | None = None
+    #: an estimate of S_ii = B_i A⁻¹ B_iᵀ per row (None: unknown), which weighs the border of a bordered
+    #: factorisation (``substructure.factorize_contact``); the solution does not depend on it
+    flexibility: np.ndarray | None = None
     #: skip the check max|A − Aᵀ| ≤ 1e-10 max|A| (2-3 s at 1.1M dofs) for a matrix symmetric by
     #: construction (``analysis.Discretization.qp``: Pᵀ A P of an assembled stiffness)
     symmetric: bool = field(default=False, repr=False)
@@ -69,6 +72,10 @@ class ContactQP:
         self.weights = _vector("qp.weights", self.weights, m)
         if np.any(self.weights <= 0):
             raise InputError("qp.weights", "vertex weights must be > 0")
+        if self.flexibility is not None:
+            self.flexibility = _vector("qp.flexibility", self.flexibility, m)
+            if np.any(self.flexibility < 0):
+                raise InputError("qp.flexibility", "row flexibilities must be ≥ 0")
         if (self.D is None) != (self.P is None):
             raise InputError("qp.D", "force control needs both D (m×k) and P (k), or neither")
         if self.D is not None:
@@ -129,6 +136,8 @@ class ContactQP:
         sub.B = self.B[rows]
         sub.G = self.G[rows]
         sub.weights = self.weights[rows]
+        if self.flexibility is not None:
+            sub.flexibility = self.flexibility[rows]
         if self.D is not None:
             sub.D = np.ascontiguousarray(self.D[rows])
         if self.row_labels is not None:

@@ -64,7 +64,8 @@ class Workspace:
         self.timings["feasibility"] = time.perf_counter() - t
         t = time.perf_counter()
         if factorization is None:
-            factorization = factorize_contact(qp.A, qp.B, min_unknowns=0) if substructure else factorize(qp.A)
+            factorization = (factorize_contact(qp.A, qp.B, min_unknowns=0, flexibility=qp.flexibility)
+                             if substructure else factorize(qp.A))
         self.fact = factorization
         self.timings["factorization"] = time.perf_counter() - t
         sch = self.fact.schur if substructure is not False else None

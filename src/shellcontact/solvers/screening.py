@@ -72,7 +72,8 @@ def factorize_screened(qp: ContactQP, groups: np.ndarray | None = None, initial_
     rows = initial_rows(qp.G, groups)
     if initial_active is not None:
         rows = np.union1d(rows, np.flatnonzero(np.asarray(initial_active, dtype=bool)))
-    fac = factorize_contact(qp.A, qp.B[rows], backend, min_unknowns=min_unknowns)
+    flex = None if qp.flexibility is None else qp.flexibility[rows]
+    fac = factorize_contact(qp.A, qp.B[rows], backend, min_unknowns=min_unknowns, flexibility=flex)
     return fac, (rows if fac.schur is not None else None)
 
 

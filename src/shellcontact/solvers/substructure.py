@@ -15,6 +15,7 @@ rows equal (a prefix of) the QP's B.
 
 from __future__ import annotations
 
+import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError
@@ -32,13 +33,14 @@ MAX_ROWS = 12000
 
 
 def factorize_contact(A: sp.spmatrix, B: sp.spmatrix, backend: str = "auto", max_rows: int = MAX_ROWS,
-                      min_unknowns: int = MIN_UNKNOWNS) -> Factorization:
+                      min_unknowns: int = MIN_UNKNOWNS, flexibility: np.ndarray | None = None) -> Factorization:
     """``linalg.factorize(A)``, bordered by the contact rows B when that pays.
 
     When the backend ``supports_schur``, 0 < m ≤ ``max_rows`` and n ≥ ``min_unknowns``, this is
     ``factorize(A, backend, border=B)`` (``schur`` is S's dense Cholesky form, or None if T was not
     positive definite); otherwise ``factorize(A, backend)``. Solves and refinement are those of
-    ``Factorization``.
+    ``Factorization``. ``flexibility``: estimates of S_ii per row of B (``ContactQP.flexibility``); their mean
+    weighs the border (``linalg.factorize``'s ``border_flexibility``).
     """
     name = resolve_backend(backend)
     A = sp.csr_matrix(A, dtype=float)
@@ -50,7 +52,10 @@ def factorize_contact(A: sp.spmatrix, B: sp.spmatrix, backend: str = "auto", max
         raise InputError("B", f"must have {n} columns, got {B.shape[1]}")
     if not borders(n, m, name, max_rows, min_unknowns):
         return factorize(A, name)
-    return factorize(A, name, border=B)
+    flexibility = None if flexibility is None else np.asarray(flexibility, float)
+    positive = None if flexibility is None else flexibility[flexibility > 0]  # rows with ∇Z = 0 see nothing
+    scale = float(np.mean(positive)) if positive is not None and positive.size else None
+    return factorize(A, name, border=B, border_flexibility=scale)
 
 
 def borders(n: int, m: int, backend: str = "auto", max_rows: int = MAX_ROWS, min_unknowns: int = MIN_UNKNOWNS) -> bool:
