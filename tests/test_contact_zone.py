@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
+from shellcontact.analysis import discretize
 from shellcontact.demo import demo_case_path
 
 
@@ -57,3 +58,32 @@ def test_a_fixed_punch_that_only_touches_gets_a_tolerance_from_the_motion():
     assert -0.1 - 1e-9 <= z["x"][0] < 0 < z["x"][1] <= 0.1 + 1e-9  # along the invert, within the saddle's length
     assert 225 <= z["phi"][0] < 270 < z["phi"][1] <= 315
     assert s["contact"][0]["zone"]["state"] == "area"
+
+
+def test_the_space_memo_keeps_what_is_used_again():
+    """ShellSpace.memo drops the least recently used evaluation: the zone basis that every point of a curve
+    reads survives the new rim points each point adds (it was dropped as the oldest before)."""
+    from shellcontact.spaces import MEMO_ENTRIES
+
+    space = discretize(sc.load_case(demo_case_path(), ["mesh.nx=4", "mesh.nphi=4"])).space
+    space.memo = {}
+    calls = []
+    space.memoized(("zone",), lambda: calls.append("zone") or 1)
+    for k in range(3 * MEMO_ENTRIES):
+        space.memoized(("rim", k), lambda: 0)
+        assert space.memoized(("zone",), lambda: calls.append("zone") or 1) == 1
+    assert calls == ["zone"] and len(space.memo) == MEMO_ENTRIES
+
+
+def test_field_derivatives_of_some_quantities_equal_those_of_all():
+    from shellcontact.model import field_derivatives
+
+    space = discretize(sc.load_case(demo_case_path(), ["mesh.nx=4", "mesh.nphi=4"])).space
+    U = np.random.default_rng(3).standard_normal(space.ndofs)
+    X, _ = space.quadrature(4)
+    els = np.arange(space.mesh.nelements)
+    every = field_derivatives(space, U, els, X)
+    some = field_derivatives(space, U, els, X, ("v", "w_x", "u_s"))
+    assert set(some) == {"v", "w_x", "u_s"}
+    for k, v in some.items():
+        np.testing.assert_allclose(v, every[k], rtol=1e-14, atol=1e-14 * np.abs(every[k]).max())

@@ -137,3 +137,55 @@ def test_bordered_matrix_equals_its_definition(name: str) -> None:
     got = bordered_upper(holed.copy(), Bs, rho)
     assert got.has_sorted_indices
     assert np.allclose(got.toarray(), reference(holed), rtol=0.0, atol=1e-15)
+
+
+# -- the border's weight: ρ = 1 / (an estimate of S_ii) -------------------------------------------------------
+def _shell_qp(sets: list[str], path: str = "examples/paper_panel.toml"):
+    from pathlib import Path
+
+    from shellcontact.analysis import discretize
+    from shellcontact.case import load_case
+
+    case = load_case(Path(__file__).resolve().parents[1] / path, sets)
+    d = discretize(case)
+    return d, d.qp()
+
+
+@pytest.mark.parametrize("path, sets", [
+    ("examples/paper_panel.toml", ["mesh.nx=24", "mesh.nphi=24"]),
+    ("examples/ring_stiffness.toml", []),
+])
+def test_the_flexibility_estimate_is_near_the_schur_diagonal(path: str, sets: list[str]) -> None:
+    """contact.point_flexibility (a plate on the hoop-membrane foundation) against S_ii = B_i A⁻¹ B_iᵀ from
+    solves: the same order of magnitude (measured 2.2 and 9.4 here), which is what weighing the border
+    needs (ρ S_ii near 1: the error of S grows with log ρ S_ii either way, bordered.border_weight)."""
+    from shellcontact.solvers.screening import initial_rows
+
+    d, qp = _shell_qp(sets, path)
+    rows = initial_rows(qp.G, d.operator.punch)
+    pick = rows[np.linspace(0, rows.size - 1, 12).astype(int)]
+    B = qp.B[pick]
+    S_ii = np.einsum("ij,ji->i", B.toarray(), factorize(qp.A).solve_many(B.T.toarray()))
+    ratio = S_ii / qp.flexibility[pick]
+    assert np.all((ratio > 1.0) & (ratio < 20.0)), ratio
+
+
+@pytest.mark.skipif(not HAS_PARDISO, reason="the Schur complement needs PARDISO")
+def test_a_border_weighed_by_the_flexibility_gives_S() -> None:
+    """The weight ρ = 1/mean(flexibility) is the one used, and S from that bordered factorisation equals
+    B A⁻¹ Bᵀ from refined solves (to 1e-9 of its size), its columns cached and equal when asked again."""
+    from shellcontact.linalg.bordered import border_weight
+    from shellcontact.solvers.screening import initial_rows
+
+    d, qp = _shell_qp(["mesh.nx=24", "mesh.nphi=24"])
+    rows = initial_rows(qp.G, d.operator.punch)
+    fac = factorize_contact(qp.A, qp.B[rows], min_unknowns=0, flexibility=qp.flexibility[rows])
+    assert fac.schur.rho == pytest.approx(1.0 / np.mean(qp.flexibility[rows]), rel=1e-14)
+    assert border_weight(sp.csr_matrix(np.ones((2, 3))), 4.0) == 0.25
+    cols = np.linspace(0, rows.size - 1, 10).astype(int)
+    B = qp.B[rows]
+    ref = B @ factorize(qp.A).solve_many(B[cols].T.toarray())
+    got = fac.schur.columns(cols)
+    assert np.max(np.abs(got - ref)) <= 1e-9 * np.max(np.abs(ref))
+    again = fac.schur.columns(cols[::-1])
+    assert np.array_equal(again, got[:, ::-1])

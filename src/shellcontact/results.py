@@ -130,10 +130,16 @@ class ShellSolution:
         return float(np.max(np.abs(self.U[self.space.w_slice][: 6 * self.space.nv : 6])))
 
     def reactions(self) -> np.ndarray:
-        """Generalised support reactions R = A U − F − (other forces); zero at free dofs."""
+        """Generalised support reactions R = A U − F − (other forces); zero at free dofs (computed once: the
+        summary reads them three times; read only)."""
+        return self._reactions
+
+    @functools.cached_property
+    def _reactions(self) -> np.ndarray:
         R = self.A @ self.elastic - self.F
         if self.extra_forces is not None:
             R -= self.extra_forces
+        R.setflags(write=False)
         return R
 
     @functools.cached_property

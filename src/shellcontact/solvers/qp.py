@@ -51,7 +51,7 @@ class ContactQP:
         n = A.shape[0]
         if A.shape != (n, n) or n == 0:
             raise InputError("qp.A", f"must be square and non-empty, got shape {A.shape}")
-        amax = float(np.abs(A.data).max()) if A.nnz else 0.0
+        amax = max(float(A.data.max()), -float(A.data.min())) if A.nnz else 0.0  # (a NaN propagates; no copy)
         if not np.isfinite(amax):
             raise InputError("qp.A", "has non-finite entries")
         asym = 0.0 if self.symmetric or not A.nnz else abs(A - A.T).max()
