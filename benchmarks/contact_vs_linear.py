@@ -32,7 +32,7 @@ CASE = ROOT / "examples" / "paper_panel.toml"
 GOAL = 1.5
 
 
-def worker(n: int, method: str, repeat: int = 3) -> dict:
+def worker(n: int, method: str, repeat: int = 3, points: str = "default") -> dict:
     import scipy.sparse as sp
 
     from shellcontact import linalg
@@ -40,7 +40,8 @@ def worker(n: int, method: str, repeat: int = 3) -> dict:
     from shellcontact.case import load_case
 
     linalg.factorize(sp.identity(4, format="csr")).solve(np.ones(4))  # load the libraries outside the timings
-    case = load_case(CASE, [f"mesh.nx={n}", f"mesh.nphi={n}"])
+    sets = [f"mesh.nx={n}", f"mesh.nphi={n}"] + ([] if points == "default" else [f"solver.contact_points={points}"])
+    case = load_case(CASE, sets)
     contact, linear = [], []
     for _ in range(max(1, repeat)):
         res = solve(case, method=method)
@@ -71,10 +72,12 @@ def main(argv=None) -> dict:
     ap.add_argument("--n", type=int, help="mesh n × n (default 112, quick 40)")
     ap.add_argument("--methods", default="active-set,dual,penalty")
     ap.add_argument("--repeat", type=int, default=3, help="timed runs of each side, alternating (best is kept)")
+    ap.add_argument("--points", default="default", choices=["default", "vertices", "vertices+midpoints"],
+                    help="[solver] contact_points (default: the case's, i.e. the package default vertices+midpoints)")
     ap.add_argument("--worker", nargs="*")
     args = ap.parse_args(argv)
     if args.worker:
-        res = worker(int(args.worker[0]), args.worker[1], int(args.worker[2]))
+        res = worker(int(args.worker[0]), args.worker[1], int(args.worker[2]), *args.worker[3:4])
         common.emit(res)
         return res
     n = args.n or (40 if args.quick else 112)
@@ -82,10 +85,10 @@ def main(argv=None) -> dict:
     runs = {}
     for m in args.methods.split(","):
         try:
-            runs[m] = common.run_worker(Path(__file__), [str(n), m, str(args.repeat)])
+            runs[m] = common.run_worker(Path(__file__), [str(n), m, str(args.repeat), args.points])
         except RuntimeError as exc:
             print(f"{m}: failed: {str(exc)[-500:]}")
-    print(f"# Contact solve vs one linear solve ({CASE.name}, mesh {n}×{n})")
+    print(f"# Contact solve vs one linear solve ({CASE.name}, mesh {n}×{n}, contact points: {args.points})")
     print(common.machine_line(info))
     rows = [[m, r["dofs"], r["constraints"], r["active"], r["iterations"], r["contact_cost"],
              r["linear_factorize"] + r["linear_solve"], r["ratio"],

@@ -28,6 +28,7 @@ from shellcontact.solvers import (
     solve_dual,
     solve_penalty,
 )
+from shellcontact.solvers.schur import MIN_BATCH, deepest_violations
 
 TOL = 1e-10
 
@@ -445,3 +446,44 @@ def test_active_set_stopped_while_growing_names_the_iteration_limit():
     assert exc.value.iterations == 6
     sol = solve_active_set(qp, growth=0.9, max_add=2, max_iterations=1000)
     assert sol.iterations > 6
+
+
+def test_dual_projected_search_reaches_the_enumerated_solution() -> None:
+    """The dual's face step falls back on a projected search along the face's Newton direction when
+    dropping the face minimiser's negative entries does not lower the energy (dual.py, step (b)). Random
+    4-6 row problems (S not an M-matrix) that take that branch, found by a fixed search: each ends at the
+    KKT point found by enumerating every active set, and the energy falls at every step."""
+    rng = np.random.default_rng(3)
+    taken = 0
+    for _ in range(200):
+        m = 6
+        B = rng.standard_normal((m, m))
+        qp = ContactQP(sp.identity(m, format="csr"), rng.standard_normal(m), sp.csr_matrix(B),
+                       rng.standard_normal(m), np.ones(m))
+        sol = solve_dual(qp, growth=0.0)
+        if not any(rec.get("projected_search") for rec in sol.history):
+            continue
+        taken += 1
+        U_ref, lam_ref = _enumerate(qp)
+        assert _rel(sol.U, U_ref) <= 1e-10
+        assert np.abs(sol.Lambda - lam_ref).max() <= 1e-10 * max(np.abs(lam_ref).max(), 1.0)
+        energies = [rec["energy"] for rec in sol.history if "energy" in rec]
+        assert all(b < a for a, b in zip(energies, energies[1:], strict=False))
+    assert taken >= 3
+
+
+def test_working_set_grows_from_the_deepest_rows_and_at_most_doubles() -> None:
+    """schur.deepest_violations: among the candidates with g < 0, those within θ of the deepest, and at
+    most max(64, size of the set) of them, the deepest first."""
+    g = -np.linspace(1.0, 2.0, 300)  # row 299 deepest
+    cand = np.ones(300, dtype=bool)
+    cand[299] = False  # already in the set
+    v = deepest_violations(g, cand, 0.0, 10)
+    assert v.sum() == MIN_BATCH and not v[299]
+    assert np.array_equal(np.flatnonzero(v), np.arange(299 - MIN_BATCH, 299))
+    assert deepest_violations(g, cand, 0.0, 200).sum() == 200
+    assert deepest_violations(g, cand, 0.0, 1000).sum() == 299
+    # θ = 0.9: only gaps ≤ 0.9·min g (min over candidates: g[298])
+    v = deepest_violations(g, cand, 0.9, 1000)
+    assert np.array_equal(v, cand & (g <= 0.9 * g[298]))
+    assert not deepest_violations(-g, cand, 0.0, 0).any()  # nothing violated
