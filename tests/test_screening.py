@@ -13,7 +13,7 @@ from synthetic import beam_qp, plate_qp
 
 from shellcontact.errors import InputError
 from shellcontact.linalg import available_backends, factorize
-from shellcontact.solvers import kkt_residuals, solve_active_set, solve_dual
+from shellcontact.solvers import kkt_residuals, solve_active_set, solve_dual, solve_penalty
 from shellcontact.solvers.schur import Workspace
 from shellcontact.solvers.screening import initial_rows, solve_screened
 from shellcontact.solvers.substructure import factorize_contact
@@ -68,6 +68,36 @@ def test_screened_equals_whole(name: str, solver, prediction: str) -> None:
     assert np.allclose(sol.info["gap"], qp.gap(sol.U, sol.delta))
 
 
+@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("prediction", ["deepest", "shallowest", "all but the weakest"])
+def test_screened_penalty_equals_whole(name: str, prediction: str) -> None:
+    """The penalty method on the screened rows: an outside row joins as soon as it penetrates at all (each
+    penetrating row carries a penalty force), so the result is the penalty solution of the whole QP, to the
+    round-off of its Newton system; with the shallowest rows first, over several rounds (warm-started from
+    the previous round's U); and with every penetrating row but the one of the weakest force, which then
+    penetrates by a hair only (a tolerance like the exact methods' would leave it out, force and all)."""
+    qp = CASES[name]()
+    eps = 1e-8
+    ref = solve_penalty(qp, epsilon=eps, factorization=factorize(qp.A))
+    order = np.argsort(qp.G, kind="stable")
+    k = max(4, qp.m // 4)
+    if prediction == "all but the weakest":
+        act = np.flatnonzero(ref.active)
+        rows = np.setdiff1d(act, act[np.argmin(ref.Lambda[act])])
+    else:
+        rows = np.sort(order[:k] if prediction == "deepest" else order[-k:])
+    fac = factorize_contact(qp.A, qp.B[rows], min_unknowns=0)
+    sol = solve_screened(qp, rows, solve_penalty, fac, tol=1e-10, exact=False, epsilon=eps)
+    scr = sol.info["screening"]
+    if prediction != "deepest":
+        assert scr["rounds"] > 1
+    assert sol.method == "penalty" and sol.info["epsilon"] == eps
+    assert np.array_equal(sol.active, ref.active)
+    assert np.linalg.norm(sol.U - ref.U) <= 1e-8 * np.linalg.norm(ref.U)
+    assert np.max(np.abs(sol.Lambda - ref.Lambda)) <= 1e-8 * np.max(np.abs(ref.Lambda))
+    assert np.all(qp.gap(sol.U, sol.delta)[~sol.active] >= 0.0)  # no penetrating row without its force
+
+
 @pytest.mark.skipif(not HAS_PARDISO, reason="the dense Schur complement needs PARDISO")
 def test_workspace_prefix_schur_and_reuse() -> None:
     qp = CASES["plate-zone"]()
@@ -96,21 +126,26 @@ def test_workspace_prefix_schur_and_reuse() -> None:
 def test_solve_takes_the_screened_path_and_agrees() -> None:
     """analysis.solve on the paper panel at 52k unknowns (above substructure.MIN_UNKNOWNS): the
     screened, substructured path gives the active set, forces and KKT level of the plain path
-    ([solver] substructure = false: one sparse solve per Schur column)."""
+    ([solver] substructure = false: one sparse solve per Schur column), for an exact method and for the
+    penalty method."""
     from pathlib import Path
 
     from shellcontact import load_case, solve
 
     path = Path(__file__).resolve().parent.parent / "src" / "shellcontact" / "cases" / "paper_panel.toml"
-    screened = solve(load_case(path, ["mesh.nx=56", "mesh.nphi=56"]))
-    plain = solve(load_case(path, ["mesh.nx=56", "mesh.nphi=56", "solver.substructure=false"]))
-    scr = screened.contact.solution.info["screening"]
-    assert screened.info["unknowns"] >= 40_000 and scr["rows"][0] < scr["candidates"]
-    assert "screening" not in plain.contact.solution.info
-    assert np.array_equal(screened.contact.active, plain.contact.active)
-    f_s, f_p = (r.contact.summary()[0]["force_magnitude"] for r in (screened, plain))
-    assert f_s == pytest.approx(f_p, rel=1e-8)
-    assert max(screened.summary()["kkt_scaled"].values()) <= 1e-10
+    for method in ("active-set", "penalty"):
+        screened = solve(load_case(path, ["mesh.nx=56", "mesh.nphi=56"]), method=method)
+        plain = solve(load_case(path, ["mesh.nx=56", "mesh.nphi=56", "solver.substructure=false"]), method=method)
+        scr = screened.contact.solution.info["screening"]
+        assert screened.info["unknowns"] >= 40_000 and scr["rows"][0] < scr["candidates"]
+        assert "screening" not in plain.contact.solution.info
+        assert np.array_equal(screened.contact.active, plain.contact.active)
+        f_s, f_p = (r.contact.summary()[0]["force_magnitude"] for r in (screened, plain))
+        assert f_s == pytest.approx(f_p, rel=1e-8)
+        if method == "active-set":
+            assert max(screened.summary()["kkt_scaled"].values()) <= 1e-10
+        else:  # the penalised equation's backward error, as the penalty's own stopping test
+            assert screened.contact.solution.info["continuation"][-1]["backward_error"] <= 1e-10
 
 
 @pytest.mark.skipif(not HAS_PARDISO, reason="the substructured path needs PARDISO")

@@ -381,8 +381,8 @@ def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndar
         kw["max_iterations"] = opts.max_iterations
     method = METHODS[opts.method]
     if not method.exact:
-        return method.load()(qp, epsilon=eps, continuation=list(opts.continuation) or None,
-                             initial_U=initial_U_r, **kw)
+        return solve_screened(qp, screen, method.load(), exact=False, epsilon=eps,
+                              continuation=list(opts.continuation) or None, initial_U=initial_U_r, **kw)
     return solve_screened(qp, screen, method.load(), initial_active=initial_active,
                           extended=opts.extended_precision, **kw)
 
@@ -489,10 +489,9 @@ class Factorizer:
 
     def contact(self, qp: ContactQP, groups: np.ndarray, initial_active: np.ndarray | None,
                 opts: SolverOptions) -> tuple[Factorization, np.ndarray | None]:
-        """The factorisation of the reduced stiffness for ``opts.method`` and the screened rows (None: the
-        whole QP directly): for the exact methods A bordered by the rows predicted to touch
-        (``solvers.screening``), else A alone."""
-        if METHODS[opts.method].exact and opts.substructure is not False:
+        """The factorisation of the reduced stiffness and the screened rows (None: the whole QP directly):
+        A bordered by the rows predicted to touch (``solvers.screening``), for every method."""
+        if opts.substructure is not False:
             return factorize_screened(qp, groups, initial_active, opts.backend,
                                       0 if opts.substructure is True else MIN_UNKNOWNS)
         return factorize(qp.A, opts.backend), None
@@ -535,7 +534,7 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
     exact = METHODS[opts.method].exact
     if initial_active is None and initial_U_r is not None and exact:
         initial_active = qp.gap(initial_U_r) <= 0.0
-    # exact methods: the dense Schur complement of the rows predicted to touch (solvers.screening)
+    # every method: the dense Schur complement of the rows predicted to touch (solvers.screening)
     with timer.stage("factorization"):
         fac, screen = factorizer.contact(qp, op.punch, initial_active, opts)
     info["backend"] = fac.backend

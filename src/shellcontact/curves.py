@@ -12,8 +12,8 @@ Schur blocks (MODEL.md §8), and its Result is that of ``analysis.solve`` of its
   indentation or force change (same first contact, an explicit or unchanged zone), or a position change
   on a mesh read from a file, stays in one. A mesh fitted to all points would change every point's
   result, so families are never merged that way.
-* **What is shared.** Below ``substructure.MIN_UNKNOWNS`` unknowns (and for the penalty method) the
-  factorisation of A alone, for every point. Above it the exact methods factorise A bordered by the rows
+* **What is shared.** Below ``substructure.MIN_UNKNOWNS`` unknowns the factorisation of A alone, for
+  every point. Above it every method factorises A bordered by the rows
   predicted to touch (``solvers.screening``); that factorisation is shared by the points whose border
   rows are equal — a force-controlled curve (the punch sits where it first touches, whatever the force:
   B, G and the Schur complement are the same at every point, only the prescribed force changes). On an
@@ -127,7 +127,7 @@ class SharedFactorizer(Factorizer):
         """As ``Factorizer.contact`` for a cold start (``screening.factorize_screened`` without a warm
         active set, so that the border does not follow the start), reused when the border is equal."""
         min_unknowns = 0 if opts.substructure is True else MIN_UNKNOWNS
-        if not METHODS[opts.method].exact or opts.substructure is False:
+        if opts.substructure is False:
             return self.linear(qp.A, opts.backend), None
         rows = initial_rows(qp.G, groups)
         if not borders(qp.n, rows.size, opts.backend, min_unknowns=min_unknowns):

@@ -3,7 +3,7 @@
 The dense Schur complement of ``substructure.factorize_contact`` costs more the more rows it has
 (demo case, 211k unknowns, PARDISO, 1 thread: plain factorisation 3.1 s; with the Schur
 complement of 10 rows 4.2 s, 300 rows 4.8 s, all 2025 candidate rows 7.4-8.4 s), while only
-about 4 % of the candidate rows end up active. So the exact methods work on a growing row set W:
+about 4 % of the candidate rows end up active. So every method works on a growing row set W:
 
 1. W = the rows predicted to touch (``initial_rows``): for each punch the fraction ``fraction``
    of its candidate rows with the smallest G (the deepest overlap of the undeformed shell), at
@@ -17,6 +17,12 @@ about 4 % of the candidate rows end up active. So the exact methods work on a gr
    for later rounds) and step 2 repeats.
 
 W only grows, so the loop ends, at the latest with W = all rows.
+
+The penalty method runs the same loop (``exact=False``), with one difference: an outside row joins W as soon
+as it penetrates at all, since every penetrating row carries a penalty force; the screened solution is
+then the penalty solution of the whole QP. Paper panel at 216k dofs with the midpoints' 7 921 rows: 4 881
+Schur columns by sparse solves and 79 s of contact solve on A alone, 2.8 s after the factorisation bordered
+by the 2 641 screened rows (4.3 s against 1.8 s for A alone), the same 675 penetrating rows.
 """
 
 from __future__ import annotations
@@ -64,7 +70,7 @@ def initial_rows(G: np.ndarray, groups: np.ndarray | None = None, fraction: floa
 def factorize_screened(qp: ContactQP, groups: np.ndarray | None = None, initial_active: np.ndarray | None = None,
                        backend: str = "auto",
                        min_unknowns: int = MIN_UNKNOWNS) -> tuple[Factorization, np.ndarray | None]:
-    """The factorisation for the exact methods: A with the dense Schur complement of the rows
+    """The factorisation for the contact methods: A with the dense Schur complement of the rows
     ``initial_rows(qp.G, groups)`` (plus the rows of ``initial_active``, e.g. a warm start) when
     ``substructure.factorize_contact`` takes that path (from ``min_unknowns`` on), else plain. Returns
     it and the screened rows (None when there is no Schur complement: then solve the whole QP
@@ -85,16 +91,23 @@ def solve_screened(
     tol: float = 1e-10,
     initial_active: np.ndarray | None = None,
     max_rounds: int = 50,
+    exact: bool = True,
     **kw,
 ) -> ContactSolution:
-    """Solve ``qp`` by ``solver`` (``solve_active_set`` or ``solve_dual``) on a growing row set,
-    starting from ``rows`` (module docstring). ``factorization`` should carry the Schur complement
-    of ``qp.B[rows]`` (``factorize_contact``); ``kw`` go to the solver. The result is the solution
-    of the whole QP; ``info["screening"]`` lists the rows per round. Without screening (``rows``
-    None, as ``factorize_screened`` returns it for a plain factorisation, or every row) this is
-    ``solver`` on the whole QP."""
+    """Solve ``qp`` by ``solver`` on a growing row set, starting from ``rows`` (module docstring).
+    ``factorization`` should carry the Schur complement of ``qp.B[rows]`` (``factorize_contact``);
+    ``kw`` go to the solver. The result is the solution of the whole QP; ``info["screening"]`` lists
+    the rows per round. Without screening (``rows`` None, as ``factorize_screened`` returns it for a
+    plain factorisation, or every row) this is ``solver`` on the whole QP.
+
+    ``exact``: ``solver`` is an exact method (``solve_active_set``, ``solve_dual``: warm-started by an
+    active set; an outside row may penetrate by the tolerance, as any row of the KKT point may) or,
+    False, the penalty method (``solve_penalty``: warm-started by the previous round's U; an outside
+    row joins as soon as it penetrates at all, since every penetrating row carries a penalty force, so
+    the screened penalty solution is that of the whole penalised problem)."""
     if rows is None or np.asarray(rows).size == qp.m:
-        return solver(qp, tol=tol, factorization=factorization, initial_active=initial_active, **kw)
+        start_kw = {"initial_active": initial_active} if exact else {}
+        return solver(qp, tol=tol, factorization=factorization, **start_kw, **kw)
     t0 = time.perf_counter()
     m = qp.m
     order = np.asarray(rows, dtype=np.int64)
@@ -109,8 +122,9 @@ def solve_screened(
     for rnd in range(1, max_rounds + 1):
         sizes.append(int(order.size))
         sub = qp.restrict(order)
-        start = None if initial_active is None else initial_active[order]
-        sol = solver(sub, tol=tol, factorization=factorization, initial_active=start, **kw)
+        if exact:
+            kw["initial_active"] = None if initial_active is None else initial_active[order]
+        sol = solver(sub, tol=tol, factorization=factorization, **kw)
         iterations += sol.iterations
         for rec in sol.history:
             history.append({**rec, "screening_round": rnd})
@@ -120,13 +134,15 @@ def solve_screened(
         lscale = length_scale(qp, g)
         outside = ~inside & (g < 0)
         pen_out = float(-g[outside].min()) if outside.any() else 0.0
-        if pen_out <= tol * lscale:
+        if pen_out <= (tol * lscale if exact else 0.0):
             return _whole(qp, sol, order, g, lscale, iterations, history, timings, sizes, t0)
         new = np.flatnonzero(outside)
         active = np.zeros(m, dtype=bool)
         active[order[sol.active]] = True
         active[new] = True  # PDAS: the penetrating rows start active
         initial_active = active
+        if not exact:  # the penalty restarts from this round's displacements
+            kw["initial_U"] = sol.U
         order = np.concatenate([order, new[np.argsort(g[new], kind="stable")]])
         inside[new] = True
     raise SolverError(f"{sol.method}: screening did not settle in {max_rounds} rounds",
