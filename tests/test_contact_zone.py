@@ -60,6 +60,26 @@ def test_a_fixed_punch_that_only_touches_gets_a_tolerance_from_the_motion():
     assert s["contact"][0]["zone"]["state"] == "area"
 
 
+def test_a_plate_placed_at_round_off_overlap_counts_as_just_touching():
+    """The ring example's bottom plate is centred at a + t/2, whose floating-point placement "overlaps" the
+    shell by about 1e-17 m: that is round-off (placement.TOUCH_ROUNDOFF), not an overlap, so the plate's zone
+    tolerance comes from the shell's motion toward it (here the pipe's translation, about half the top plate's
+    travel) and not from 1e-3 × 1e-17 m, which left a zone of the exact-zero gap points only."""
+    from pathlib import Path
+
+    from shellcontact.punches import place_punches
+
+    case = sc.load_case(Path(__file__).resolve().parents[1] / "examples" / "ring_stiffness.toml",
+                        ["mesh.nx=4", "mesh.nphi=32"])
+    assert [p.overlap for p in place_punches(case.punches, case.shell)] == [0.0, 0.0]
+    s = sc.solve(case).summary()
+    top, bottom = (c["zone"] for c in s["contact"])
+    travel = s["contact"][0]["punch_travel"]
+    assert top["gap_tolerance"] == pytest.approx(1e-3 * travel, rel=1e-12)
+    assert 0.1 * top["gap_tolerance"] < bottom["gap_tolerance"] <= 1e-3 * s["max_abs_w"] * (1 + 1e-12)
+    assert bottom["phi"][1] - bottom["phi"][0] > 0.1 and bottom["area"] > 0.2 * top["area"]
+
+
 def test_the_space_memo_keeps_what_is_used_again():
     """ShellSpace.memo drops the least recently used evaluation: the zone basis that every point of a curve
     reads survives the new rim points each point adds (it was dropped as the oldest before)."""

@@ -51,6 +51,10 @@ ZONE_OVERLAP_FACTOR = 2.0  # automatic zone threshold g = max(2 overlap, 0.2 siz
 ZONE_SIZE_FRACTION = 0.2
 RESOLUTION_THICKNESS = 1e-6  # the round-off of Z on the shell must stay below this fraction of the thickness
 EDGE_CONTACT_FRACTION = 1e-4  # a finite body's first contact this close (× zone size) to a zone edge is on it
+#: an overlap below this fraction of the radius is the round-off of the placement, not an overlap: a plate centred
+#: at a + t/2 "overlapped" the ring example by 1.4e-17 m, and a fixed punch's zone tolerance (1e-3 × its
+#: overlap) was then 1.4e-20 m instead of following the shell's motion toward it (contact.contact_zone)
+TOUCH_ROUNDOFF = 1e-12
 
 
 @dataclass
@@ -342,7 +346,7 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
     if zp <= zmin:
         zmin, xm, pm = zp, xp, pp
     punch.min_gap, punch.first_contact = zmin, (xm, pm)
-    punch.overlap = max(0.0, -zmin)
+    punch.overlap = -zmin if -zmin > TOUCH_ROUNDOFF * shell.radius else 0.0
     check_linear_range(punch.overlap, shell, f"{where}.indentation" if mode == "indentation" else where,
                        "the punch overlaps the undeformed shell by")
     gap = spec.zone_gap if spec.zone_gap is not None else max(
