@@ -233,7 +233,7 @@ def test_flat_punch_reaction_concentrates_at_the_strip_edges():
     rows = []
     for r in range(4):
         # the line sums run along the vertex generators: the paper's vertex constraints (with the edge
-        # midpoints too the active-set method needs more than 100 iterations at refine 3, the dual 210)
+        # midpoints too the active-set method needs more than 100 iterations at refine 3, the dual 286)
         d = roller_dict(nx=4, nphi=8, refine=r, solver={"contact_points": "vertices"})
         d["punch"] = [
             {

@@ -121,8 +121,14 @@ class ShellSolution:
     @property
     def energy(self) -> float:
         """Strain energy ½ a(U, U) (of the elastic part)."""
-        U = self.elastic
-        return 0.5 * float(U @ (self.A @ U))
+        return 0.5 * float(self.elastic @ self._AU)
+
+    @functools.cached_property
+    def _AU(self) -> np.ndarray:
+        """A U of the elastic part, shared by the energy and the reactions (one product with A: 20 ms at 216k dofs)."""
+        AU = self.A @ self.elastic
+        AU.setflags(write=False)
+        return AU
 
     @property
     def max_abs_w(self) -> float:
@@ -136,7 +142,7 @@ class ShellSolution:
 
     @functools.cached_property
     def _reactions(self) -> np.ndarray:
-        R = self.A @ self.elastic - self.F
+        R = self._AU - self.F
         if self.extra_forces is not None:
             R -= self.extra_forces
         R.setflags(write=False)
