@@ -134,6 +134,27 @@ def test_killed_run_into_new_directory_leaves_no_result(tmp_path: Path) -> None:
     assert not (tmp_path / "new").exists()
 
 
+def test_interrupt_just_after_the_staging_directory_appears_leaves_nothing(tmp_path: Path, monkeypatch) -> None:
+    """A signal that lands right after the staging directory's mkdir (the interruption tests send SIGINT the
+    moment it appears) must still find it discarded: the Staging object exists before its directory does."""
+    from shellcontact.transaction import replace_dir
+
+    real_mkdir = Path.mkdir
+
+    def mkdir_then_interrupt(self, *args, **kw):
+        real_mkdir(self, *args, **kw)
+        if ".staging-" in self.name:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(Path, "mkdir", mkdir_then_interrupt)
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "summary.json").write_text("previous")
+    with pytest.raises(KeyboardInterrupt), replace_dir(tmp_path / "out", overwrite=True, owned={"summary.json"}):
+        pytest.fail("the body must not run")
+    assert leftovers(tmp_path) == []
+    assert (tmp_path / "out" / "summary.json").read_text() == "previous"
+
+
 def test_remove_stale_puts_back_a_result_left_aside(tmp_path: Path, previous: Path) -> None:
     """Where directories cannot be exchanged atomically the old result is renamed aside first; a run cut
     between the two renames leaves it there, and the next run puts it back before anything else."""

@@ -360,11 +360,14 @@ def _in_directory(
         stage = None if in_place else Staging(target)
         work = target if stage is None else stage.path
         try:
+            if stage is not None:
+                stage.create()
             work.mkdir(parents=True, exist_ok=True)
             write_json(work / manifest_name, manifest)
             res = solve(work)
             if stage is None:
                 stage = Staging(target)  # the final files appear together beside the records
+                stage.create()
             names = write(res, stage.path)
             stage.commit(final if in_place else entries)
         except BaseException as exc:

@@ -150,12 +150,18 @@ def _link_tree(src: Path, dst: Path) -> None:
 
 
 class Staging:
-    """A directory ``.DIR.staging-<pid>-<token>`` beside ``target``; ``commit`` moves it into place."""
+    """A directory ``.DIR.staging-<pid>-<token>`` beside ``target``: ``create`` makes it, ``commit`` moves it
+    into place, ``discard`` removes it. The object exists before the directory does, so that a caller holds
+    it before ``create`` and can always discard: a signal that lands just after the mkdir (a test sends
+    SIGINT the moment the directory appears) would otherwise leave it behind, its owner never assigned."""
 
     def __init__(self, target: str | Path) -> None:
         self.target = resolve_target(target)
         self.path = self.target.parent / f".{self.target.name}.staging-{os.getpid()}-{secrets.token_hex(4)}"
+
+    def create(self) -> Staging:
         self.path.mkdir(parents=True)
+        return self
 
     def commit(self, owned: Collection[str]) -> None:
         """Move the staged directory to the target.
@@ -213,19 +219,17 @@ def replace_dir(target: str | Path, *, overwrite: bool, owned: Collection[str], 
     with DirectoryLock(target, wait=wait, shown=target, option=option):
         remove_stale(target)
         check_output_dir(target, overwrite, option)
-        stage = None
+        stage = Staging(target)
         try:
-            stage = Staging(target)
+            stage.create()
             yield stage.path
             stage.commit(owned)
         except OSError as exc:
-            if stage is not None:
-                stage.discard()
-                name_in_target(exc, stage.path, target)
+            stage.discard()
+            name_in_target(exc, stage.path, target)
             raise
         except BaseException:
-            if stage is not None:
-                stage.discard()
+            stage.discard()
             raise
 
 
