@@ -286,7 +286,10 @@ class Result:
         and moments about the origin (generalised forces on the interpolated rigid motions). The residual is
         U·A·I_h(r), r a rigid motion: zero up to round-off for the motions the space represents exactly (the
         translation along x) and of the order of the interpolation error of the others; it falls under refinement.
-        ``relative_residual``: the largest |residual| relative to the gross size Σ |f_d r_d| of its balance."""
+        ``relative_residual``: the largest force residual relative to the largest gross force balance
+        Σ |f_d r_d| over the three translations, and likewise for the moments. Not each balance by its own gross
+        size: one the load does not load (the ring between plates along y: 0.3 N gross against 400 N along z)
+        would turn the interpolation error of a gauge reaction (2.6 mN) into 0.9 %."""
         sol = self.solution
         parts = {"applied": sol.F, "reactions": sol.reactions()}
         if sol.extra_forces is not None:
@@ -300,7 +303,8 @@ class Result:
             total += np.concatenate([f, m])
             gross += np.abs(sol.rigid_modes) @ np.abs(vec)
         out["residual"] = {"force": [float(c) for c in total[:3]], "moment": [float(c) for c in total[3:]]}
-        out["relative_residual"] = float(np.max(np.abs(total) / np.maximum(gross, 1e-300)))
+        out["relative_residual"] = max(float(np.abs(total[:3]).max() / max(float(gross[:3].max()), 1e-300)),
+                                       float(np.abs(total[3:]).max() / max(float(gross[3:].max()), 1e-300)))
         return out
     def warnings(self) -> list[str]:
         """What the user must know about this result: a penalty parameter outside its accurate range,

@@ -281,7 +281,7 @@ def _headline(s: Mapping[str, Any]) -> str:
     eq = s.get("equilibrium")
     if eq:
         rows.append(["equilibrium residual", eq["relative_residual"], _Unit("–"),
-                     "relative to the gross size of each balance"])
+                     "relative to the largest gross force (moment) balance"])
     scaled = s.get("kkt_scaled") or {}
     if scaled:
         worst_k = max(scaled, key=lambda k: scaled[k])
@@ -325,7 +325,8 @@ def _equilibrium(s: Mapping[str, Any]) -> str:
             for k in ("applied", "contact", "reactions", "residual") if k in eq]
     return table(rows, ("", f"force [Fx, Fy, Fz]{bracket('force', system)}",
                         f"moment about the origin [Mx, My, Mz]{bracket('moment', system)}")) + (
-        f"<p>relative residual {eq['relative_residual']:.2e} (of the gross size of each balance)</p>")
+        f"<p>relative residual {eq['relative_residual']:.2e} (of the largest gross force balance, and moment "
+        "balance, Σ |f r|)</p>")
 
 
 def _probes(s: Mapping[str, Any]) -> str:
