@@ -128,14 +128,14 @@ def _moved_gauge(original, planes: bool):
     """``supports.gauge_dofs`` moved off its choice: to other vertices on the same planes of symmetry
     (``planes``), or to vertices on no plane of symmetry of the ring."""
 
-    def gauge(space, motions, excluded):
+    def gauge(space, motions, excluded, modes=None):
         shifted = excluded.copy()
-        shifted[original(space, motions, excluded)] = True
+        shifted[original(space, motions, excluded, modes)] = True
         if not planes:
             phi = np.degrees(space.mesh.p[1] / space.mesh.shell.radius) % 90.0
             on = np.flatnonzero(np.isclose(phi, 0.0) | np.isclose(phi, 90.0))
             shifted[space.u_dofs(on)] = shifted[space.v_dofs(on)] = True
-        return original(space, motions, shifted)
+        return original(space, motions, shifted, modes)
 
     return gauge
 

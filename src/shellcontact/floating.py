@@ -87,7 +87,7 @@ def analyse(space: ShellSpace, reduction: Reduction, op: ContactOperator, F: np.
     """Classify the free motions of ``reduction`` against the contact rows of ``op`` and the load F;
     refuse those that nothing can hold (InputError naming every such motion)."""
     sh = space.mesh.shell
-    modes = rigid_modes(space)
+    modes = rigid_modes(space) if reduction.modes is None else reduction.modes
     free = reduction.motions
     BR = op.B[first_contact_rows(op, sh.radius)] @ (modes @ free.T)  # (rows, k)
     _, sv, vt = np.linalg.svd(BR, full_matrices=True) if BR.shape[0] else (None, np.zeros(0), np.eye(len(free)))

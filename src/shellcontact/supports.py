@@ -131,6 +131,8 @@ class Reduction:
 
     motions: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))  # free rigid motions (rows, mode basis)
     gauge: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))  # dofs fixed by the gauge only
+    #: (ndofs, 6) the interpolated rigid motions (``rigid_modes``), kept when some are free (floating.analyse)
+    modes: np.ndarray | None = None
 
     @classmethod
     def build(cls, space: ShellSpace, supports: Supports, floating: bool = False) -> Reduction:
@@ -146,12 +148,13 @@ class Reduction:
         fixed_mask = np.zeros(n, dtype=bool)
         fixed_mask[constrained_dofs(space, supports)] = True
         fixed_mask |= fixed_mask[master]  # a slave of a fixed master is fixed
-        motions = free_motions(space, np.nonzero(fixed_mask)[0])
+        modes = rigid_modes(space)
+        motions = free_motions(space, np.nonzero(fixed_mask)[0], modes=modes)
         gauge = np.zeros(0, dtype=int)
         if motions.size and not floating:
             raise InputError("supports", free_motion_message(motions, space.mesh.shell))
         if motions.size:
-            gauge = gauge_dofs(space, motions, fixed_mask | (master != np.arange(n)))
+            gauge = gauge_dofs(space, motions, fixed_mask | (master != np.arange(n)), modes=modes)
             fixed_mask[gauge] = True
             fixed_mask |= fixed_mask[master]
         is_unknown = (master == np.arange(n)) & ~fixed_mask
@@ -162,7 +165,7 @@ class Reduction:
         rows = np.nonzero(keep)[0]
         P = sp.csr_matrix((sign[keep], (rows, col[master[keep]])), shape=(n, free.size))
         fixed = np.nonzero(fixed_mask)[0]
-        return cls(P=P, fixed=fixed, free=free, motions=motions, gauge=gauge)
+        return cls(P=P, fixed=fixed, free=free, motions=motions, gauge=gauge, modes=modes if motions.size else None)
 
     def reduce_matrix(self, A: sp.spmatrix) -> sp.csr_matrix:
         """Pᵀ A P; without periodic slaves P only selects the free dofs, so slice instead."""
@@ -199,11 +202,13 @@ def rigid_modes(space: ShellSpace) -> np.ndarray:
     return np.array(cols).T
 
 
-def free_motions(space: ShellSpace, fixed: np.ndarray, tol: float = 1e-8) -> np.ndarray:
+def free_motions(space: ShellSpace, fixed: np.ndarray, tol: float = 1e-8,
+                 modes: np.ndarray | None = None) -> np.ndarray:
     """A basis (k, 6) of the combinations of the six rigid motions (MODEL.md §2) that satisfy every support:
     the null space of the interpolated motions restricted to the fixed dofs, in reduced row echelon form so
-    that a motion free by itself appears alone (e.g. "translation along y")."""
-    R = rigid_modes(space)
+    that a motion free by itself appears alone (e.g. "translation along y"). ``modes``: ``rigid_modes(space)``
+    when the caller has it."""
+    R = rigid_modes(space) if modes is None else modes
     R = R[fixed] / np.linalg.norm(R, axis=0)
     if R.shape[0] == 0:
         return np.eye(6)
@@ -232,7 +237,8 @@ def _echelon(N: np.ndarray) -> np.ndarray:
     return N
 
 
-def gauge_dofs(space: ShellSpace, motions: np.ndarray, excluded: np.ndarray) -> np.ndarray:
+def gauge_dofs(space: ShellSpace, motions: np.ndarray, excluded: np.ndarray,
+               modes: np.ndarray | None = None) -> np.ndarray:
     """One dof per free motion, fixed to zero in the elastic part so that the reduced stiffness is regular
     (a few fixed dofs remove the kernel, as for FETI's floating subdomains). Only tangential dofs (u, v at
     the vertices) are candidates, never w. For each motion in turn (those the elements represent exactly, the
@@ -248,7 +254,7 @@ def gauge_dofs(space: ShellSpace, motions: np.ndarray, excluded: np.ndarray) -> 
     cand = np.sort(cand[~excluded[cand]])
     # the motions P2 holds exactly (u = const, v = const) first: they move every vertex alike
     motions = motions[np.argsort(np.any(motions[:, [1, 2, 4, 5]] != 0.0, axis=1), kind="stable")]
-    R = (rigid_modes(space) @ motions.T)[cand]  # (candidates, k)
+    R = ((rigid_modes(space) if modes is None else modes) @ motions.T)[cand]  # (candidates, k)
     scale = np.abs(R).max()
     chosen: list[int] = []
     for j in range(R.shape[1]):
