@@ -169,7 +169,7 @@ SOLVER = Table("solver", (
         choices=("vertices", "vertices+midpoints"),
         default=SolverOptions.contact_points),
     Key("substructure", "choice", "factorise A bordered by the contact rows predicted to touch, for the dense Schur "
-        "complement (exact methods, PARDISO): `\"auto\"` from 40 000 unknowns on, `true` always, `false` never "
+        "complement (every method, PARDISO): `\"auto\"` from 40 000 unknowns on, `true` always, `false` never "
         "([solvers.md](solvers.md#large-problems-substructured-factorisation-and-screening))",
         choices=("auto", True, False), default=SolverOptions.substructure),
 ))
