@@ -483,6 +483,7 @@ def test_working_set_grows_from_the_deepest_rows_and_at_most_doubles() -> None:
     assert np.array_equal(np.flatnonzero(v), np.arange(299 - MIN_BATCH, 299))
     assert deepest_violations(g, cand, 0.0, 200).sum() == 200
     assert deepest_violations(g, cand, 0.0, 1000).sum() == 299
+    assert np.array_equal(np.flatnonzero(deepest_violations(g, cand, 0.0, 1000, limit=8)), np.arange(291, 299))
     # θ = 0.9: only gaps ≤ 0.9·min g (min over candidates: g[298])
     v = deepest_violations(g, cand, 0.9, 1000)
     assert np.array_equal(v, cand & (g <= 0.9 * g[298]))

@@ -74,13 +74,8 @@ def solve_active_set(
     growth = default_growth(ws) if growth is None else growth
     check_growth(growth)
 
-    def violated(g: np.ndarray, I: np.ndarray) -> np.ndarray:
-        v = deepest_violations(g, ~I & live, growth, int(I.sum()))
-        if max_add is not None and v.sum() > max_add:  # only the max_add deepest violations
-            cand = np.flatnonzero(v)
-            v = np.zeros_like(v)
-            v[cand[np.argsort(g[cand], kind="stable")[:max_add]]] = True
-        return v
+    def violated(g: np.ndarray, I: np.ndarray) -> np.ndarray:  # with max_add: only the max_add deepest
+        return deepest_violations(g, ~I & live, growth, int(I.sum()), limit=max_add)
 
     if initial_active is not None:
         I = as_mask(initial_active, qp.m) & live

@@ -43,16 +43,18 @@ def default_growth(ws: Workspace) -> float:
 MIN_BATCH = 64
 
 
-def deepest_violations(g: np.ndarray, candidates: np.ndarray, growth: float, size: int) -> np.ndarray:
+def deepest_violations(g: np.ndarray, candidates: np.ndarray, growth: float, size: int,
+                       limit: int | None = None) -> np.ndarray:
     """The rows that join a working set of ``size`` rows: among ``candidates`` (bool) with g < 0, those
-    with g ≤ θ·min g (θ = ``growth``), and of those at most max(``MIN_BATCH``, size), the deepest. The
+    with g ≤ θ·min g (θ = ``growth``), and of those at most max(``MIN_BATCH``, size) (and at most ``limit``,
+    when given), the deepest. The
     cap lets the set at most double per step: when a seed face leaves a whole band of rows penetrating
     (a floating pipe held at two points), the band would otherwise join at once, each row a column of S
     (4260 instead of 844 columns for the same 249 active rows, ring-stiffness example at 213k unknowns)."""
     v = candidates & (g < 0)
     if growth > 0 and v.any():
         v &= g <= growth * g[v].min()
-    cap = max(MIN_BATCH, size)
+    cap = max(MIN_BATCH, size) if limit is None else min(max(MIN_BATCH, size), limit)
     if v.sum() > cap:
         cand = np.flatnonzero(v)
         v = np.zeros_like(v)
