@@ -74,8 +74,9 @@ def test_screened_penalty_equals_whole(name: str, prediction: str) -> None:
     """The penalty method on the screened rows: an outside row joins as soon as it penetrates at all (each
     penetrating row carries a penalty force), so the result is the penalty solution of the whole QP, to the
     round-off of its Newton system; with the shallowest rows first, over several rounds (warm-started from
-    the previous round's U); and with every penetrating row but the one of the weakest force, which then
-    penetrates by a hair only (a tolerance like the exact methods' would leave it out, force and all)."""
+    the previous round's U); and with every penetrating row but the one of the weakest force, which must
+    join in a later round. (These cases do not tell the zero threshold from a small positive one: no outside
+    row here ends penetrating by less than 1e-3 of the length scale; the last assertion states the property.)"""
     qp = CASES[name]()
     eps = 1e-8
     ref = solve_penalty(qp, epsilon=eps, factorization=factorize(qp.A))
