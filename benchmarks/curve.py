@@ -4,18 +4,23 @@
     python benchmarks/curve.py --quick     # 40 × 40, 5 points
     python benchmarks/curve.py --n 80 --points 10
     python benchmarks/curve.py --control indentation   # indentations 0.5 … 10 mm instead of forces
+    python benchmarks/curve.py --points vertices       # [solver] contact_points (default: the case's)
 
 In one fresh subprocess, side by side on the demo case with its punch force-controlled (forces P/k …
 P, P = 2.5e5 N, about the demo's 10 mm indentation; the travel δ at each force is the indentation):
 
 * **linear**: one linear solve of the same mesh: factorise the reduced stiffness + solve one right-hand
   side (best of ``--repeat``);
-* **curve**: ``solve_family`` of the points (one mesh, assembly and factorisation; warm-started);
-* **naive**: ``analysis.solve`` of each point on its own.
+* **curve**: ``solve_family`` of the points (one mesh, assembly and factorisation; warm-started; a force
+  curve's final checks in block solves, ``screening.solve_screened_curve``);
+* **curve + summaries**: the same, then every point's ``summary()`` (stresses at every vertex, reactions,
+  equilibrium, contact zone, rim: what a curve's points make only when asked for);
+* **naive**: ``analysis.solve`` of each point on its own (which makes all of it).
 
 The target ratio is curve / linear with the curve's cost counted after its one-time mesh and assembly
-(which a linear analysis needs as well): factorisation, every point's contact rows, contact solve,
-post-processing and summary. The naive loop is counted the same way (each of its solves minus its
+(which a linear analysis needs as well): factorisation, every point's contact rows, contact solve and
+checks (the whole QP's KKT residuals, the penetration outside the zone); the ratio with every point's
+summary is printed beside it. The naive loop is counted the same way (each of its solves minus its
 mesh and assembly), and both are also given end to end. Every point of the curve is compared with the
 naive solve of the same case (force, travel, displacements). The machine is shared: wall times move
 by tens of percent between runs; the process CPU time is printed beside them.
@@ -41,12 +46,13 @@ FORCE = 2.5e5  # N: about the demo's 10 mm indentation
 INDENTATION = 1e-2  # m: the demo's indentation (``--control indentation``)
 
 
-def curve_cases(n: int, points: int, control: str = "force"):
+def curve_cases(n: int, points: int, control: str = "force", contact_points: str = "default"):
     """The curve's cases: forces P/k … P, or (``control="indentation"``) indentations d/k … d."""
     from shellcontact.case import case_from_dict, load_case
     from shellcontact.overrides import apply_overrides
 
-    base = load_case(CASE, [f"mesh.nx={n}", f"mesh.nphi={n}"])
+    sets = [f"mesh.nx={n}", f"mesh.nphi={n}"]
+    base = load_case(CASE, sets + ([] if contact_points == "default" else [f"solver.contact_points={contact_points}"]))
     if control == "indentation":
         return [case_from_dict(apply_overrides(base.raw, {"punch.0.indentation": INDENTATION * (i + 1) / points}),
                                source=CASE) for i in range(points)]
@@ -66,7 +72,7 @@ def _stages(result) -> float:
     return result.timings.get("mesh", 0.0) + result.timings.get("assembly", 0.0)
 
 
-def worker(n: int, points: int, repeat: int, control: str = "force") -> dict:
+def worker(n: int, points: int, repeat: int, control: str = "force", contact_points: str = "default") -> dict:
     import scipy.sparse as sp
 
     from shellcontact import linalg
@@ -74,8 +80,9 @@ def worker(n: int, points: int, repeat: int, control: str = "force") -> dict:
     from shellcontact.curves import solve_family
 
     linalg.factorize(sp.identity(4, format="csr")).solve(np.ones(4))  # load the libraries outside the timings
-    list(solve_family(curve_cases(8, 2, control)))  # and every module a solve imports on first use
-    cases = curve_cases(n, points, control)
+    for r in solve_family(curve_cases(8, 2, control, contact_points)):  # every module a solve imports on first use
+        r.summary()
+    cases = curve_cases(n, points, control, contact_points)
 
     # the curve
     wall0, cpu0 = time.perf_counter(), time.process_time()
@@ -84,6 +91,10 @@ def worker(n: int, points: int, repeat: int, control: str = "force") -> dict:
         curve.append(r)
         marks.append(time.perf_counter() - wall0)
     curve_wall, curve_cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+    t0 = time.perf_counter()
+    for r in curve:  # what the points make when asked for: stresses, reactions, zone, rim
+        r.summary()
+    summaries = time.perf_counter() - t0
     shared = _stages(curve[0])
     d = curve[0].discretization
 
@@ -135,7 +146,10 @@ def worker(n: int, points: int, repeat: int, control: str = "force") -> dict:
         "linear_factorize": t_fact, "linear_solve": t_solve, "linear_cpu": linear_cpu,
         "linear_samples": [a + b for a, b, _ in linear],
         "curve_wall": curve_wall, "curve_cpu": curve_cpu, "curve_shared_mesh_assembly": shared,
-        "curve_cost": curve_wall - shared, "curve_stages": per_stage,
+        "curve_cost": curve_wall - shared, "curve_stages": per_stage, "summaries": summaries,
+        "ratio_with_summaries": (curve_wall - shared + summaries) / linear_cost, "contact_points": contact_points,
+        "shared_final_solves": sum(bool(r.contact.solution.info.get("curve", {}).get("shared_final_solves"))
+                                   for r in curve),
         "naive_wall": naive_wall, "naive_cpu": naive_cpu, "naive_cost": naive_cost,
         "ratio": (curve_wall - shared) / linear_cost, "naive_ratio": naive_cost / linear_cost,
         "ratio_end_to_end": curve_wall / (linear_cost + shared), "worst_difference": worst, "rows": rows,
@@ -150,18 +164,22 @@ def main(argv=None) -> dict:
     ap.add_argument("--repeat", type=int, default=3, help="timed linear solves (the best is kept)")
     ap.add_argument("--control", choices=("force", "indentation"), default="force",
                     help="the curve's points: forces (the target) or indentations")
+    ap.add_argument("--points", default="default", choices=["default", "vertices", "vertices+midpoints"],
+                    help="[solver] contact_points (default: the case's, i.e. the package default vertices+midpoints)")
     ap.add_argument("--worker", nargs="*")
     args = ap.parse_args(argv)
     if args.worker:
-        res = worker(int(args.worker[0]), int(args.worker[1]), int(args.worker[2]), args.worker[3])
+        res = worker(int(args.worker[0]), int(args.worker[1]), int(args.worker[2]), args.worker[3], args.worker[4])
         common.emit(res)
         return res
     n = args.n or (40 if args.quick else 112)
     points = args.points or (5 if args.quick else 20)
     info = common.machine()
-    r = common.run_worker(Path(__file__), [str(n), str(points), str(args.repeat), args.control], timeout=7200.0)
+    r = common.run_worker(Path(__file__), [str(n), str(points), str(args.repeat), args.control, args.points],
+                          timeout=7200.0)
     print(f"# A {points}-point force–indentation curve ({args.control} control) vs one linear solve "
-          f"({CASE.name}, mesh {n}×{n}, {r['dofs']} dofs, {r['constraints']} contact rows)")
+          f"({CASE.name}, mesh {n}×{n}, {r['dofs']} dofs, {r['constraints']} contact rows, contact points: "
+          f"{args.points})")
     print(common.machine_line(info))
     lin = r["linear_factorize"] + r["linear_solve"]
     print(common.table(
@@ -169,9 +187,12 @@ def main(argv=None) -> dict:
         [["linear (factorise + solve)", lin, lin, 1.0, r["linear_cpu"], 1],
          [f"curve ({points} points, solve_family)", r["curve_wall"], r["curve_cost"], r["ratio"], r["curve_cpu"],
           r["factorizations"]],
+         ["curve + every point's summary", r["curve_wall"] + r["summaries"], r["curve_cost"] + r["summaries"],
+          r["ratio_with_summaries"], "", r["factorizations"]],
          [f"naive loop ({points} × solve)", r["naive_wall"], r["naive_cost"], r["naive_ratio"], r["naive_cpu"],
           points]]))
-    print("curve, after its mesh and assembly (s): " + ", ".join(f"{k} {v:.2f}" for k, v in r["curve_stages"].items()))
+    print("curve, after its mesh and assembly (s): " + ", ".join(f"{k} {v:.2f}" for k, v in r["curve_stages"].items())
+          + f"; points whose final check ran on the block solves: {r['shared_final_solves']} of {points}")
     print(common.table(["force N", "travel m", "active", "iterations curve", "iterations naive", "curve s", "naive s"],
                        [[x["force"], x["travel"], x["active"], x["iterations_curve"], x["iterations_naive"],
                          x["seconds_curve"], x["seconds_naive"]] for x in r["rows"]]))
@@ -180,6 +201,7 @@ def main(argv=None) -> dict:
     target = common.target(round(r["ratio"], 3), GOAL, f"seconds of a {points}-point curve (after its mesh and "
                            "assembly) / seconds of one linear factorise + solve", "one linear solve of the same mesh",
                            naive_ratio=round(r["naive_ratio"], 3), dofs=r["dofs"], points=points, control=args.control,
+                           with_summaries=round(r["ratio_with_summaries"], 3), contact_points=args.points,
                            end_to_end=round(r["ratio_end_to_end"], 3))
     out = {"targets": {"curve_vs_linear": target}, "run": r, "machine": info}
     print(json.dumps(out))

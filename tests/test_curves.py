@@ -59,6 +59,9 @@ def assert_same(family, alone, rtol: float | None) -> None:
             assert ea["area"] == pytest.approx(eb["area"], rel=rtol)
             if eb.get("punch_travel") is not None:
                 assert ea["punch_travel"] == pytest.approx(eb["punch_travel"], rel=rtol)
+            # the contact zone and the rim: made when first asked for on a curve's points (lazily)
+            assert ea["zone"]["area"] == pytest.approx(eb["zone"]["area"], rel=1e-6)
+            assert ("rim" in ea) == ("rim" in eb)
         assert sa["energy"] == pytest.approx(sb["energy"], rel=rtol)
         assert sa["probes"][0]["w"] == pytest.approx(sb["probes"][0]["w"], rel=rtol)
 
@@ -79,6 +82,8 @@ def test_a_curve_equals_its_points_solved_alone(curve, substructure):
     forces = [r.summary()["contact"][0]["force_magnitude"] for r in alone]
     assert np.all(np.diff(forces) > 0) and forces[0] > 0  # a real curve: every point in contact, each deeper
     warm = list(solve_family(points))
+    # a force curve's points differ in P only: their final checks share block solves (screening.solve_screened_curve)
+    assert all(("curve" in r.contact.solution.info) == (curve == "force") for r in warm)
     assert_same(warm, alone, RTOL)
     cold = list(solve_family(points, warm_start=False))
     assert_same(cold, alone, None)
@@ -163,3 +168,33 @@ def test_a_punch_sweep_is_the_separate_solves_bit_for_bit():
     for v, row in zip(values, res.rows):
         alone = solve(case_from_dict(apply_overrides(raw, {"punch.0.force": v})))
         assert row == {"punch.0.force": v, **summary_row(alone.summary())}
+
+
+def test_a_force_curve_with_a_poor_border_runs_those_points_alone(monkeypatch):
+    """When the rows bordering the factorisation miss rows a point touches, that point's outside rows
+    penetrate on the block solves' U and it runs the lone screened solve: the same Results."""
+    import shellcontact.curves as curves
+
+    punch, key, values = CURVES["force"]
+    points = cases(panel(punch, substructure=True), key, values)
+    alone = [solve(c) for c in points]
+    monkeypatch.setattr(curves, "initial_rows", lambda G, groups: np.argsort(G, kind="stable")[:2])
+    warm = list(solve_family(points))
+    shared = [r.contact.solution.info["curve"]["shared_final_solves"] for r in warm]
+    assert not all(shared)
+    assert_same(warm, alone, RTOL)
+
+
+def test_a_curve_point_checks_its_summary_when_first_asked(monkeypatch):
+    """A curve's points make their contact zone, rim and summary lazily: a non-finite result is still
+    refused (SolverError naming the quantity), at the first summary instead of at the solve."""
+    from shellcontact.errors import SolverError
+
+    punch, key, values = CURVES["force"]
+    warm = list(solve_family(cases(panel(punch), key, values[:2])))
+    assert all(r.check_pending for r in warm)
+    warm[0].summary()
+    assert not warm[0].check_pending
+    warm[1].solution.U[:] = np.nan
+    with pytest.raises(SolverError, match="non-finite result"):
+        warm[1].summary()

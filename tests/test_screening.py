@@ -7,6 +7,8 @@ the Schur columns of the added rows by solves, reused between rounds), and again
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 from synthetic import beam_qp, plate_qp
@@ -15,7 +17,7 @@ from shellcontact.errors import InputError
 from shellcontact.linalg import available_backends, factorize
 from shellcontact.solvers import kkt_residuals, solve_active_set, solve_dual, solve_penalty
 from shellcontact.solvers.schur import Workspace
-from shellcontact.solvers.screening import initial_rows, solve_screened
+from shellcontact.solvers.screening import initial_rows, solve_screened, solve_screened_curve
 from shellcontact.solvers.substructure import factorize_contact
 
 HAS_PARDISO = "pardiso" in available_backends()
@@ -97,6 +99,68 @@ def test_screened_penalty_equals_whole(name: str, prediction: str) -> None:
     assert np.linalg.norm(sol.U - ref.U) <= 1e-8 * np.linalg.norm(ref.U)
     assert np.max(np.abs(sol.Lambda - ref.Lambda)) <= 1e-8 * np.max(np.abs(ref.Lambda))
     assert np.all(qp.gap(sol.U, sol.delta)[~sol.active] >= 0.0)  # no penetrating row without its force
+
+
+CURVE_POINTS = {
+    "beam-force": lambda: beam_qp(n_el=64, radius=1.0, indentation=0.0, force=50.0),
+    "plate-indentation": lambda: plate_qp(N=24, indentation=0.004, radius=2.0),
+}
+
+
+def _points(name: str) -> list:
+    """Points of a curve on one QP (A, F and B shared): the beam's punch at four forces (P differs), the
+    plate's at four indentations 1.7 … 6 mm (G shifted; the rows of the 4 mm indentation)."""
+    qp = CURVE_POINTS[name]()
+    points = []
+    for s in (0.3, 0.6, 1.0, 1.6):
+        p = copy.copy(qp)
+        if qp.P is not None:
+            p.P = s * qp.P
+        else:
+            p.G = qp.G - (s - 1.0) * 0.0033  # indentation 4 mm + (s − 1) × 3.3 mm
+        points.append(p)
+    return points
+
+
+@pytest.mark.parametrize("name", list(CURVE_POINTS))
+@pytest.mark.parametrize("solver", [solve_active_set, solve_dual], ids=["active-set", "dual"])
+@pytest.mark.parametrize("prediction", ["good", "shallowest"])
+def test_curve_points_share_their_final_solves_and_equal_lone_solves(name: str, solver, prediction: str) -> None:
+    """solve_screened_curve: each point is its lone screened solve (active set, U, Λ to 1e-8, KKT ≤ 1e-10).
+    With a good prediction (the deepest half of the rows and every row any point touches) every point's
+    final check runs on the block solves; with the shallowest rows the touching rows are outside at first,
+    so points run alone (``solve_screened``) and still agree."""
+    points = _points(name)
+    qp = points[0]
+    order = np.argsort(qp.G, kind="stable")
+    if prediction == "good":
+        touching = np.flatnonzero(np.any([solver(p, factorization=factorize(p.A)).active for p in points], axis=0))
+        rows = np.union1d(order[: qp.m // 2], touching)
+        assert rows.size < qp.m  # some rows stay outside: their check is the block solves'
+    else:
+        rows = np.sort(order[-max(4, qp.m // 4):])
+    fac = factorize_contact(qp.A, qp.B[rows], min_unknowns=0)
+    curve = solve_screened_curve(points, rows, solver, fac, tol=1e-10)
+    shared = [sol.info["curve"]["shared_final_solves"] for sol in curve]
+    assert all(shared) if prediction == "good" else not all(shared)
+    for p, sol in zip(points, curve):
+        ref = solve_screened(p, rows, solver, factorize_contact(p.A, p.B[rows], min_unknowns=0), tol=1e-10)
+        assert sol.active.any()
+        assert np.array_equal(sol.active, ref.active)
+        assert np.linalg.norm(sol.U - ref.U) <= 1e-8 * np.linalg.norm(ref.U)
+        assert np.max(np.abs(sol.Lambda - ref.Lambda)) <= 1e-8 * np.max(np.abs(ref.Lambda))
+        assert max(sol.info["scaled_residuals"].values()) <= 1e-10
+        res = kkt_residuals(p, sol.U, sol.Lambda, sol.delta, fac)  # the whole QP's, evaluated afresh
+        assert res["duality_gap"] == pytest.approx(sol.residuals["duality_gap"], abs=1e-12)
+        assert res["stationarity"] == pytest.approx(sol.residuals["stationarity"], rel=1e-6, abs=1e-16)
+
+
+def test_curve_points_must_share_stiffness_load_and_rows() -> None:
+    points = _points("beam-force")
+    other = copy.copy(points[1])
+    other.B = 2.0 * other.B
+    with pytest.raises(InputError, match="point 1"):
+        solve_screened_curve([points[0], other], None, solve_active_set, factorize(points[0].A))
 
 
 @pytest.mark.skipif(not HAS_PARDISO, reason="the dense Schur complement needs PARDISO")

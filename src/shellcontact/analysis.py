@@ -150,9 +150,29 @@ class ContactResult:
     delta: np.ndarray | None  # force-control travel
     outside: np.ndarray  # per punch: largest penetration at vertices outside its candidate zone
     between: np.ndarray  # per punch: largest penetration at edge midpoints between constraint points
-    zone: list[dict] = field(default_factory=list)  # per punch: where it touches (contact.contact_zone)
-    rim: list[dict | None] = field(default_factory=list)  # per punch: the rim's line force (rim.rim_line_force)
-    rim_lines: list[list[np.ndarray]] = field(default_factory=list)  # per punch: the rim's polylines in (x, s)
+    #: () → (zone, rim, rim_lines): computed when first read (``zone``, ``rim``, ``rim_lines``)
+    derive: Callable[[], tuple[list, list, list]] | None = field(default=None, repr=False)
+    _derived: tuple[list, list, list] | None = field(default=None, init=False, repr=False)
+
+    def _post(self) -> tuple[list, list, list]:
+        if self._derived is None:
+            self._derived = self.derive() if self.derive is not None else ([], [], [])
+        return self._derived
+
+    @property
+    def zone(self) -> list[dict]:
+        """Per punch: where it touches (``contact.contact_zone``)."""
+        return self._post()[0]
+
+    @property
+    def rim(self) -> list[dict | None]:
+        """Per punch: the rim's line force (``rim.rim_line_force``)."""
+        return self._post()[1]
+
+    @property
+    def rim_lines(self) -> list[list[np.ndarray]]:
+        """Per punch: the rim's polylines in (x, s)."""
+        return self._post()[2]
 
     @property
     def pressure(self) -> np.ndarray:
@@ -198,6 +218,9 @@ class Result:
     contact: ContactResult | None = None
     punches: list[Punch] = field(default_factory=list)
     discretization: Discretization | None = None  # the reduced operators (e.g. ``.qp()``)
+    #: the summary's check of finite values (and the logging of the warnings) waits for the first ``summary()``
+    #: (``contact_result(lazy=True)``)
+    check_pending: bool = field(default=False, repr=False)
 
     # -- outputs (thin wrappers over outputs, writers, fields, plots and report) ---------------------------------
     def write(self, directory, *, overwrite: bool = False, **kw) -> dict:
@@ -371,6 +394,9 @@ class Result:
         out["timings"] = dict(self.timings)
         out["unit_system"] = self.case.units
         out["units"] = summary_units(out, self.case.units)
+        if self.check_pending:
+            _check_summary(self, out)
+            self.check_pending = False
         return out
 
 
@@ -422,9 +448,13 @@ class Discretization:
             D = fl.D if D is None else np.hstack([D, fl.D])
             P = fl.P if P is None else np.concatenate([P, fl.P])
             labels += [f"rigid motion: {name}" for name in fl.names]
-        qp = ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights, D=D, P=P, row_labels=_row_labels(op),
-                       force_labels=labels if D is not None else None, symmetric=True,
-                       flexibility=row_flexibility(self.space.mesh.shell, op))
+        rows = self.shared.get("rows")  # the labels and flexibilities of the rows B: the same for a force curve
+        if rows is None or rows[0] is not op.B:
+            rows = self.shared["rows"] = (op.B, _row_labels(op), row_flexibility(self.space.mesh.shell, op))
+        qp = ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights, D=D, P=P, row_labels=rows[1],
+                       force_labels=labels if D is not None else None, symmetric=True, flexibility=rows[2],
+                       finite=self.shared.get("finite_A") is self.Ar)
+        self.shared["finite_A"] = self.Ar  # checked
         if "abs_A" not in self.shared:
             self.shared["abs_A"] = qp.abs_A
         qp._abs_A = self.shared["abs_A"]
@@ -507,7 +537,7 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
     """``solve`` from the discretisation ``d`` of ``case`` on: factorisation (by ``factorizer``), the linear
     or contact solve, post-processing."""
     factorizer = factorizer or Factorizer()
-    space, A, F, red, op, punches = d.space, d.A, d.F, d.reduction, d.operator, d.punches
+    space, A, F, red, op = d.space, d.A, d.F, d.reduction, d.operator
     info: dict[str, Any] = {"unknowns": int(d.Ar.shape[0])}
     if op is None:
         with timer.stage("factorization"):
@@ -521,13 +551,41 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
         sol = ShellSolution(space=space, U=U, A=A, F=F)
         return _checked(Result(case=case, solution=sol, timings=timings, info=info, discretization=d))
 
+    setup = prepare_contact(case, d, opts, timer, warm_start=warm_start, max_memory=max_memory, factorizer=factorizer)
+    with timer.stage("solve"):
+        cs = _solve_contact(setup.qp, opts, setup.factorization, setup.initial_U, setup.initial_active, setup.eps,
+                            progress, setup.screen)
+    return contact_result(case, d, opts, timer, setup.info, cs)
+
+
+@dataclass
+class ContactSetup:
+    """What a contact solve of one case starts from (``prepare_contact``)."""
+
+    qp: ContactQP
+    factorization: Factorization
+    screen: np.ndarray | None  # the screened rows (None: the whole QP)
+    initial_U: np.ndarray | None  # a warm start's reduced displacements
+    initial_active: np.ndarray | None  # a warm start's active rows
+    eps: float  # the penalty parameter (the penalty method)
+    info: dict[str, Any]
+
+
+def prepare_contact(case: Case, d: Discretization, opts: SolverOptions, timer: Timer, *,
+                    warm_start: Result | None = None, max_memory: float | str | None = None,
+                    factorizer: Factorizer | None = None, initial_active: np.ndarray | None = None) -> ContactSetup:
+    """The reduced QP of ``case``, its factorisation (by ``factorizer``) and its start: ``warm_start`` (a Result),
+    a nested coarser solve (``solver.nested``), or the active rows ``initial_active``."""
+    factorizer = factorizer or Factorizer()
+    space, red, op = d.space, d.reduction, d.operator
+    info: dict[str, Any] = {"unknowns": int(d.Ar.shape[0])}
     start = warm_start
-    if start is None and opts.nested and case.mesh.refine > 0:
+    if start is None and initial_active is None and opts.nested and case.mesh.refine > 0:
         coarse = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, refine=case.mesh.refine - 1))
         with timer.stage("nested"):
             start = solve(coarse, method=opts.method, backend=opts.backend, max_memory=max_memory)
         info["nested_iterations"] = [start.info.get("nested_iterations", []), start.contact.solution.iterations]
-    initial_U_r = initial_active = None
+    initial_U_r = None
     if start is not None:
         U0 = start.solution.U if start.solution.space is space else start.solution.prolongate(space)
         initial_U_r = U0[red.free]
@@ -548,9 +606,18 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
         info["penalty"] = eps
         info["warnings"] = check_penalty(case, eps, opts.continuation)
     _check_finite("the load vector F", d.Fr)
-    with timer.stage("solve"):
-        cs = _solve_contact(qp, opts, fac, initial_U_r, initial_active, eps, progress, screen)
-    info["solver_timings"] = dict(cs.timings)
+    return ContactSetup(qp, fac, screen, initial_U_r, initial_active, eps, info)
+
+
+def contact_result(case: Case, d: Discretization, opts: SolverOptions, timer: Timer, info: dict[str, Any],
+                   cs: ContactSolution, *, lazy: bool = False) -> Result:
+    """The Result of a contact solve: the solver's checks of finite values and of the linear range, the gaps
+    everywhere and the penetration checks outside the rows. ``lazy``: the contact zone and the rim's line
+    force, and the summary's check of finite values and the logging of the warnings, wait until first asked
+    for (the points of a curve, ``curves.solve_family``, most of which only their force and travel are read
+    of); otherwise they are made here, as ``solve`` does."""
+    space, A, F, red, op, punches = d.space, d.A, d.F, d.reduction, d.operator, d.punches
+    info = {**info, "solver_timings": dict(cs.timings)}
     _check_finite("the displacements U", cs.U)
     _check_finite("the contact forces Λ", cs.Lambda)
     delta, alpha = cs.delta, None
@@ -572,15 +639,26 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
             U = U + rigid
             info["rigid_motion"] = fl.summary(coefficients)
         Lam = np.asarray(cs.Lambda, float)
+
+        def derive() -> tuple[list, list, list]:
+            zone = contact_zone(space, punches, U, delta)
+            rim, lines = rim_line_force(space, punches, op, Lam, U, delta, zone)
+            return zone, rim, lines
+
         contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
                                 gap=op.gap(U, delta), delta=delta,
                                 outside=penetration_outside(space, punches, U, delta),
                                 between=_penetration_between(space, punches, opts.contact_points, U, delta),
-                                zone=contact_zone(space, punches, U, delta))
-        contact.rim, contact.rim_lines = rim_line_force(space, punches, op, Lam, U, delta, contact.zone)
+                                derive=derive)
+        if not lazy:
+            contact.zone  # noqa: B018 — made now, inside the post-processing stage
         sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam, rigid=rigid)
-    return _checked(Result(case=case, solution=sol, timings=timer.total(), info=info, contact=contact,
-                           punches=punches, discretization=d))
+    result = Result(case=case, solution=sol, timings=timer.total(), info=info, contact=contact, punches=punches,
+                    discretization=d)
+    if lazy:
+        result.check_pending = True
+        return result
+    return _checked(result)
 
 
 def _check_finite(what: str, values: np.ndarray) -> None:
@@ -607,12 +685,16 @@ def non_finite(data: Any, path: str = "") -> list[str]:
 def _checked(result: Result) -> Result:
     """The result, once its summary is finite (else SolverError naming the quantities); its warnings are
     logged (stderr from the command line and, without logging set up, from Python)."""
-    bad = non_finite(result.summary())
+    _check_summary(result, result.summary())
+    return result
+
+
+def _check_summary(result: Result, summary: dict[str, Any]) -> None:
+    bad = non_finite(summary)
     if bad:
         raise SolverError(f"non-finite result: {', '.join(bad[:8])}{' …' if len(bad) > 8 else ''}")
-    for w in result.warnings():
+    for w in summary["warnings"]:
         log.warning("warning: %s", w)
-    return result
 
 
 def _penetration_between(space: ShellSpace, punches: list[Punch], points: str, U: np.ndarray,

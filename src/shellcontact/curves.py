@@ -48,11 +48,20 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from .analysis import Discretization, Factorizer, Result, Timer, discretize, solve_discretized
+from .analysis import (
+    Discretization,
+    Factorizer,
+    Result,
+    Timer,
+    contact_result,
+    discretize,
+    prepare_contact,
+    solve_discretized,
+)
 from .arguments import expect_callable, expect_choice
 from .case import Case, expect_case
 from .contact import ContactOperator, contact_operator, point_flexibility
-from .errors import InputError
+from .errors import InputError, SolverError
 from .linalg import BACKENDS, Factorization, factorize
 from .linalg.bordered import SchurRows
 from .linalg.sparse import same_entries
@@ -62,7 +71,7 @@ from .punches import Punch, place_punches
 from .sizing import check_size, mesh_lines
 from .solvers import ContactQP
 from .solvers.methods import METHODS
-from .solvers.screening import initial_rows
+from .solvers.screening import initial_rows, solve_screened_curve
 from .solvers.substructure import MIN_UNKNOWNS, borders, factorize_contact
 
 #: (point index, solver iteration, numeric fields of the solver's record)
@@ -319,8 +328,12 @@ def _solve_family(cases: list[Case], placed: list[list[Punch]], method: str | No
                 d = base = discretize(case, opts.contact_points, timer, punches)
                 base.space.memo = {}  # every point's post-processing evaluates the same points
                 with timer.stage("assembly"):  # every point's contact rows
-                    operators = [d.operator] + [
-                        contact_operator(base.space, p, opts.contact_points) if p else None for p in placed[1:]]
+                    operators = [d.operator] + [_operator(base.space, d.operator, placed[0], p, opts.contact_points)
+                                                for p in placed[1:]]
+                if warm_start and _one_qp(operators, opts):  # a force curve: its points' final solves in blocks
+                    yield from _solve_curve(cases, placed, base, operators, timer, method, backend, max_memory,
+                                            progress, factorizer)
+                    return
                 if warm_start and not _same_borders(operators):  # equal to round-off: one border for differing rows
                     factorizer.cartesian = Cartesian(base.space, base.reduction, operators, opts.contact_points)
             else:
@@ -337,6 +350,86 @@ def _solve_family(cases: list[Case], placed: list[list[Punch]], method: str | No
     finally:  # the Results keep the space: not its memo
         if base is not None:
             base.space.memo = None
+
+
+def _same_data(a: object, b: object) -> bool:
+    """Equal values, arrays and (frozen) dataclasses compared field by field."""
+    if dataclasses.is_dataclass(a) and not isinstance(a, type):
+        return type(a) is type(b) and all(_same_data(getattr(a, f.name), getattr(b, f.name))
+                                          for f in dataclasses.fields(a))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and np.array_equal(a, b)
+    if isinstance(a, list | tuple):
+        return type(a) is type(b) and len(a) == len(b) and all(_same_data(x, y) for x, y in zip(a, b))  # type: ignore[arg-type]
+    return a is b or a == b
+
+
+def _operator(space, first: ContactOperator | None, first_punches: list[Punch], punches: list[Punch],
+              points: str) -> ContactOperator | None:
+    """The contact rows of a point: those of the first point with the new prescribed forces when the punches
+    differ in their forces only (a force curve: the punch sits where it first touches, whatever the force),
+    else ``contact.contact_operator`` (18 ms a point at 211k unknowns)."""
+    if not punches:
+        return None
+    if first is not None and len(punches) == len(first_punches) and all(
+            _same_data(dataclasses.replace(p, force=q.force), q) for p, q in zip(punches, first_punches)):
+        return dataclasses.replace(first, punches=punches, forces=np.array(
+            [punches[k].force for k in first.force_punches], dtype=float))
+    return contact_operator(space, punches, points)
+
+
+def _one_qp(operators: list[ContactOperator | None], opts: SolverOptions) -> bool:
+    """Whether the points' QPs differ only in their prescribed forces (the same rows B and gaps G) and are
+    solved by an exact method without extended precision: then ``_solve_curve`` makes their final checks
+    together."""
+    first = operators[0]
+    return (len(operators) > 1 and METHODS[opts.method].exact and not opts.extended_precision
+            and first is not None and all(op is not None and (op is first or (same_entries(op.B, first.B)
+                                                                              and np.array_equal(op.G, first.G)))
+                                          for op in operators))
+
+
+def _solve_curve(cases: list[Case], placed: list[list[Punch]], base: Discretization,
+                 operators: list[ContactOperator | None], timer: Timer, method: str | None, backend: str | None,
+                 max_memory: float | str | None, progress: FamilyProgress | None,
+                 factorizer: SharedFactorizer) -> Iterator[Result]:
+    """A warm-started family whose QPs differ only in P (``_one_qp``): every point's multipliers on the one
+    factorisation, warm-started from its predecessor, then the final checks of all points with their solves
+    in blocks (``screening.solve_screened_curve``); each Result's contact zone, rim and summary are made when
+    first asked for (``analysis.contact_result(lazy=True)``). The Results come together, after the last point's
+    multipliers."""
+    setups, timers, options = [], [], []
+    for i, (case, punches) in enumerate(zip(cases, placed)):
+        opts = case.solver.with_method(method)
+        if backend is not None:
+            opts = dataclasses.replace(opts, backend=backend)
+        t = timer if i == 0 else Timer()
+        d = base if i == 0 else dataclasses.replace(base, punches=punches, operator=operators[i],
+                                                    Br=operators[i].B @ base.reduction.P)
+        factorizer.operator = d.operator
+        setups.append((case, d, prepare_contact(case, d, opts, t, max_memory=max_memory, factorizer=factorizer)))
+        timers.append(t)
+        options.append(opts)
+    opts = options[0]
+    fac, screen = setups[0][2].factorization, setups[0][2].screen
+    if any(s.factorization is not fac or not _same_rows(s.screen, screen) for _, _, s in setups):
+        raise SolverError("curve: the points do not share one factorisation and row set")  # _one_qp rules it out
+    kw: dict = {} if opts.max_iterations is None else {"max_iterations": opts.max_iterations}
+    callbacks = [None if progress is None else (lambda rec, i=i: progress(
+        i, int(rec.get("iteration", 0)), {k: v for k, v in rec.items() if isinstance(v, float)}))
+        for i in range(len(cases))]
+    solutions = solve_screened_curve([s.qp for _, _, s in setups], screen, METHODS[opts.method].load(), fac,
+                                     tol=opts.tolerance, callbacks=callbacks, **kw)
+    for i, ((case, d, setup), cs, t, o) in enumerate(zip(setups, solutions, timers, options)):
+        t.times["solve"] = t.times.get("solve", 0.0) + cs.timings.get("total", 0.0)
+        result = contact_result(case, d, o, t, setup.info, cs, lazy=True)
+        result.timings["total"] = sum(v for k, v in result.timings.items() if k not in ("total", "output"))
+        result.info["family"] = {"index": i, "points": len(cases), "factorizations": factorizer.factorizations}
+        yield result
+
+
+def _same_rows(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    return (a is None and b is None) or (a is not None and b is not None and np.array_equal(a, b))
 
 
 def solve_families(cases: Sequence[Case], *, max_memory: float | str | None = None,

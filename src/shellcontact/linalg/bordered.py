@@ -73,8 +73,8 @@ class SchurComplement(SchurRows):
     def from_bordered(cls, B: sp.csr_matrix, rho: float, T: np.ndarray) -> SchurComplement | None:
         """From the Schur complement T of M on the border rows; None when T is not numerically
         positive definite (then the caller solves for the columns of S instead)."""
-        try:
-            chol = sla.cho_factor(0.5 * (T + T.T), lower=True, overwrite_a=True, check_finite=False)
+        try:  # one triangle of T (symmetric to round-off) is read: the transpose view needs no copy
+            chol = sla.cho_factor(T.T, lower=True, overwrite_a=True, check_finite=False)
         except (np.linalg.LinAlgError, sla.LinAlgError):
             return None
         return cls(B=B, rho=rho, chol=chol)

@@ -38,7 +38,7 @@ from ..errors import SolverError
 from ..linalg import Factorization
 from .dual import dual_core
 from .qp import ContactQP, ContactSolution, History, as_mask, check_arguments, check_growth
-from .schur import Workspace, deepest_violations, default_growth
+from .schur import Unfinished, Workspace, deepest_violations, default_growth
 
 
 def solve_active_set(
@@ -53,7 +53,8 @@ def solve_active_set(
     max_add: int | None = None,
     callback: Callable[[dict], None] | None = None,
     extended: bool = False,
-) -> ContactSolution:
+    finish: bool = True,
+) -> ContactSolution | Unfinished:
     """PDAS with cycle-detection fallback (module docstring). ``max_iterations`` bounds PDAS
     iterations plus fallback iterations. ``growth`` θ ∈ [0, 1) (default ``schur.default_growth``: 0.9,
     or 0 when the factorisation carries the dense Schur complement): add to the working set only the
@@ -65,9 +66,10 @@ def solve_active_set(
     iterations (measured on the paper panel at 211k unknowns: 155 instead of 341 columns, 43 instead
     of 12 iterations, contact solve 6.1-6.7 s instead of 7.2-8.4 s with max_add=8; raise
     ``max_iterations`` accordingly). ``extended``: the final solves with mixed-precision
-    refinement (``schur.Workspace``)."""
+    refinement (``schur.Workspace``). ``finish`` False: the converged multipliers before their final check
+    (``schur.Unfinished``), for a caller that makes the checks of several points together."""
     check_arguments(tol, max_iterations)
-    ws = Workspace(qp, factorization, extended=extended)
+    ws = Workspace(qp, factorization, extended=extended, finish=finish)
     live = ws.live
     k = qp.k
     rhs2 = -qp.P if k else None

@@ -50,7 +50,7 @@ import numpy as np
 from ..errors import SolverError
 from ..linalg import Factorization
 from .qp import ContactQP, ContactSolution, History, as_mask, check_arguments, check_growth
-from .schur import Workspace, deepest_violations, default_growth
+from .schur import Unfinished, Workspace, deepest_violations, default_growth
 
 _NEG = 1e-13  # relative size below which a negative face-minimiser component counts as zero
 
@@ -277,14 +277,16 @@ def solve_dual(
     growth: float | None = None,
     callback: Callable[[dict], None] | None = None,
     extended: bool = False,
-) -> ContactSolution:
+    finish: bool = True,
+) -> ContactSolution | Unfinished:
     """Dual method (module docstring). Warm start from Λ (``initial_lambda``) or from an
     active set (``initial_active``: the face solve on it, clipped at 0). ``growth`` θ = 0 gives
     MPRGP's full proportioning (default ``schur.default_growth``: 0.9, or 0 with the dense Schur
-    complement). ``extended``: the final solves with mixed-precision refinement (``schur.Workspace``)."""
+    complement). ``extended``: the final solves with mixed-precision refinement (``schur.Workspace``).
+    ``finish`` False: the converged multipliers before their final check (``schur.Unfinished``)."""
 
     check_arguments(tol, max_iterations)
-    ws = Workspace(qp, factorization, extended=extended)
+    ws = Workspace(qp, factorization, extended=extended, finish=finish)
     history: list = History(callback)
     lam0 = np.zeros(qp.m)
     if initial_lambda is not None:

@@ -54,13 +54,18 @@ def evaluate(
     Lambda: np.ndarray,
     delta: np.ndarray | None = None,
     factorization: Factorization | None = None,
+    AU: np.ndarray | None = None,
+    Ainv_r: np.ndarray | None = None,
+    absA_absU: np.ndarray | None = None,
 ) -> KKTReport:
-    """All residuals, their scaled forms, the energy and the dual value (see module doc)."""
-    fact = factorization if factorization is not None else factorize(qp.A)
+    """All residuals, their scaled forms, the energy and the dual value (see module doc). ``AU`` (= A U),
+    ``Ainv_r`` (= A⁻¹r for r = AU − F − BᵀΛ) and ``absA_absU`` (= |A||U|) may be given when computed already,
+    for several points at once (``screening.solve_screened_curve``: block products and one block solve for
+    every point of a curve)."""
     if qp.k and delta is None:
         delta = np.zeros(qp.k)
     BtL = qp.B.T @ Lambda
-    AU = qp.A @ U
+    AU = qp.A @ U if AU is None else AU
     rhs = qp.F + BtL
     r = AU - rhs
     g = qp.gap(U, delta)
@@ -73,7 +78,9 @@ def evaluate(
     energy = 0.5 * uau - fu - pd
     wscale = max(0.5 * abs(uau), abs(fu), abs(pd), TINY)
     comp = float(np.max(np.abs(Lambda * g)) / wscale) if g.size else 0.0
-    corr = 0.5 * float(r @ fact.solve(r)) if np.any(r) else 0.0
+    if Ainv_r is None and np.any(r):
+        Ainv_r = (factorization if factorization is not None else factorize(qp.A)).solve(r)
+    corr = 0.5 * float(r @ Ainv_r) if np.any(r) else 0.0
     gap_value = float(Lambda @ g) + corr
     res = {
         "stationarity": stat,
@@ -93,7 +100,7 @@ def evaluate(
     lscale = length_scale(qp, g)
     lam_scale = max(float(np.abs(Lambda).max()) if qp.m else 0.0, TINY)
     scaled = dict(res)
-    mag = qp.abs_A @ np.abs(U) + np.abs(qp.F) + abs(qp.B).T @ np.abs(Lambda)
+    mag = (qp.abs_A @ np.abs(U) if absA_absU is None else absA_absU) + np.abs(qp.F) + abs(qp.B).T @ np.abs(Lambda)
     scaled["stationarity"] = float(np.linalg.norm(r) / max(np.linalg.norm(mag), TINY))
     scaled["penetration"] = pen / lscale
     scaled["dual_feasibility"] = dfeas / lam_scale

@@ -19,6 +19,8 @@ converged).
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 import scipy.linalg as sla
@@ -66,7 +68,7 @@ class Workspace:
     """Factorisation, U0, c0 and the cache of Schur-complement columns for one QP."""
 
     def __init__(self, qp: ContactQP, factorization: Factorization | None = None,
-                 substructure: bool | None = None, extended: bool = False) -> None:
+                 substructure: bool | None = None, extended: bool = False, finish: bool = True) -> None:
         """``substructure``: use the dense Schur complement of the contact rows
         (``substructure.factorize_contact``) for the columns of S. None (default): use it when the
         factorisation carries one for the QP's first rows (all of them, or a prefix: the remaining
@@ -76,9 +78,12 @@ class Workspace:
         solve per column). ``extended``: the final solves U = A⁻¹(F + BᵀΛ) of ``finish_exact`` with
         mixed-precision refinement (``Factorization.solve(extended=True)``, right-hand side formed in
         extended precision too), so that the gaps, and the face refinement of Λ on them, are not
-        limited by cond(A)·ε."""
+        limited by cond(A)·ε. ``finish`` False: ``finish_exact`` returns an ``Unfinished`` (the converged
+        multipliers before their final check), whose check its caller runs later, with the solves of several
+        points in one block (``screening.solve_screened_curve``)."""
         self.qp = qp
         self.extended = extended
+        self.finish = finish
         self.t0 = time.perf_counter()
         self.timings = {"feasibility": 0.0, "factorization": 0.0, "schur": 0.0, "solve": 0.0, "dense": 0.0}
         self.n_solves = 0
@@ -399,9 +404,14 @@ class Workspace:
         history: list,
         refine: int = 3,
         info: dict | None = None,
-    ) -> ContactSolution:
+        first: tuple[np.ndarray, ...] | None = None,
+    ) -> ContactSolution | Unfinished:
         """Fresh U = A⁻¹(F + BᵀΛ), KKT check at ``tol``; refine on the face if round-off in S
-        spoils it; raise SolverError with the residuals if it still fails."""
+        spoils it; raise SolverError with the residuals if it still fails. ``first`` = (U, A U, A⁻¹r, |A||U|):
+        the first check's solves and products, made already (``Unfinished.finish``). With ``finish`` off
+        (``Workspace``), the ``Unfinished`` point instead."""
+        if not self.finish:
+            return Unfinished(self, lam, delta, tol, method, iterations, history, refine, info)
         qp = self.qp
         lam = np.maximum(lam, 0.0)
         # S from the dense Schur complement differs from the solves' S by ~1e-10 relative: one face
@@ -412,9 +422,13 @@ class Workspace:
         left = extra
         accepted = None
         for step in range(refine + 1 + extra):
-            U = self.solve_equilibrium(lam)
-            rep = evaluate(qp, U, lam, delta, self.fact)
-            self.n_solves += 1
+            if step == 0 and first is not None:
+                U, AU, Ainv_r, absA_absU = first
+                rep = evaluate(qp, U, lam, delta, self.fact, AU=AU, Ainv_r=Ainv_r, absA_absU=absA_absU)
+            else:
+                U = self.solve_equilibrium(lam)
+                rep = evaluate(qp, U, lam, delta, self.fact)
+                self.n_solves += 1
             if rep.converged(tol):
                 if left == 0 or not np.any(lam > 0) or step == refine + extra:
                     break
@@ -450,3 +464,40 @@ class Workspace:
             history.append({"iteration": iterations, "refinement": step + 1, "worst": rep.worst(),
                             "worst_value": rep.scaled[rep.worst()]})
         return self.result(U, lam, delta, lam > 0, rep, method, iterations, history, info)
+
+
+@dataclass
+class Unfinished:
+    """An exact method's converged multipliers before the final check (``Workspace(finish=False)``):
+    ``finish`` makes it, from U = A⁻¹(F + BᵀΛ), A U, A⁻¹r and |A||U| when given (solved together with other
+    points'), else solving for them; then as ``Workspace.finish_exact``."""
+
+    ws: Workspace
+    lam: np.ndarray
+    delta: np.ndarray | None
+    tol: float
+    method: str
+    iterations: int
+    history: list
+    refine: int
+    info: dict | None
+    #: when the method stopped: the time until ``finish`` is not the point's (``Workspace.result``'s total)
+    stopped: float = field(default_factory=time.perf_counter)
+
+    @property
+    def Lambda(self) -> np.ndarray:
+        """The multipliers the check starts from (≥ 0)."""
+        return np.maximum(self.lam, 0.0)
+
+    @property
+    def active(self) -> np.ndarray:
+        return self.lam > 0
+
+    def finish(self, first: tuple[np.ndarray, ...] | None = None) -> ContactSolution:
+        ws = self.ws
+        ws.finish = True
+        ws.t0 += time.perf_counter() - self.stopped
+        if first is not None:
+            ws.n_solves += 2
+        return cast(ContactSolution, ws.finish_exact(self.lam, self.delta, self.tol, self.method, self.iterations,
+                                                     self.history, self.refine, self.info, first=first))
