@@ -4,7 +4,8 @@
     python benchmarks/curve.py --quick     # 40 × 40, 5 points
     python benchmarks/curve.py --n 80 --points 10
     python benchmarks/curve.py --control indentation   # indentations 0.5 … 10 mm instead of forces
-    python benchmarks/curve.py --points vertices       # [solver] contact_points (default: the case's)
+    python benchmarks/curve.py --contact-points vertices   # [solver] contact_points (default: the case's)
+    python benchmarks/curve.py --borders 1457,1981,2641    # also: A bordered by the k deepest rows (by G)
 
 In one fresh subprocess, side by side on the demo case with its punch force-controlled (forces P/k …
 P, P = 2.5e5 N, about the demo's 10 mm indentation; the travel δ at each force is the indentation):
@@ -72,7 +73,28 @@ def _stages(result) -> float:
     return result.timings.get("mesh", 0.0) + result.timings.get("assembly", 0.0)
 
 
-def worker(n: int, points: int, repeat: int, control: str = "force", contact_points: str = "default") -> dict:
+def border_costs(d, borders: list[int], repeat: int) -> list[dict]:
+    """Seconds to factorise the reduced stiffness bordered by the k rows of smallest G (the screening's
+    order, ``solvers.screening``), best of ``repeat``, for each k in ``borders``."""
+    from shellcontact.solvers.substructure import factorize_contact
+
+    qp = d.qp()
+    order = np.argsort(qp.G, kind="stable")
+    out = []
+    for k in borders:
+        rows = np.sort(order[:k])
+        best = np.inf
+        for _ in range(max(1, repeat)):
+            t0 = time.perf_counter()
+            fac = factorize_contact(qp.A, qp.B[rows], flexibility=qp.flexibility[rows], min_unknowns=0)
+            best = min(best, time.perf_counter() - t0)
+            del fac
+        out.append({"rows": k, "seconds": best})
+    return out
+
+
+def worker(n: int, points: int, repeat: int, control: str = "force", contact_points: str = "default",
+           borders: str = "") -> dict:
     import scipy.sparse as sp
 
     from shellcontact import linalg
@@ -86,10 +108,7 @@ def worker(n: int, points: int, repeat: int, control: str = "force", contact_poi
 
     # the curve
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    curve, marks = [], []
-    for r in solve_family(cases):
-        curve.append(r)
-        marks.append(time.perf_counter() - wall0)
+    curve = list(solve_family(cases))
     curve_wall, curve_cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     t0 = time.perf_counter()
     for r in curve:  # what the points make when asked for: stresses, reactions, zone, rim
@@ -137,7 +156,10 @@ def worker(n: int, points: int, repeat: int, control: str = "force", contact_poi
         worst = {"force": max(worst["force"], df), "travel": max(worst["travel"], dt), "U": max(worst["U"], du)}
         rows.append({"force": cb["force_magnitude"], "travel": _travel(cases[k], cb), "active": active,
                      "iterations_curve": a.contact.solution.iterations, "iterations_naive": iterations,
-                     "seconds_curve": marks[k] - (marks[k - 1] if k else 0.0), "seconds_naive": naive_walls[k]})
+                     "seconds_curve": a.timings["total"], "seconds_naive": naive_walls[k]})
+    ranks = np.argsort(np.argsort(d.operator.G, kind="stable"), kind="stable")
+    deepest_needed = int(max((ranks[r.contact.active].max() + 1 for r in curve if r.contact.active.any()), default=0))
+    borders_measured = border_costs(d, [int(k) for k in borders.split(",") if k], repeat)
     per_stage = {s: sum(r.timings.get(s, 0.0) for r in curve) for s in ("factorization", "solve", "postprocess")}
     per_stage["summary and rest"] = curve_wall - shared - sum(per_stage.values())
     return {
@@ -147,6 +169,7 @@ def worker(n: int, points: int, repeat: int, control: str = "force", contact_poi
         "linear_samples": [a + b for a, b, _ in linear],
         "curve_wall": curve_wall, "curve_cpu": curve_cpu, "curve_shared_mesh_assembly": shared,
         "curve_cost": curve_wall - shared, "curve_stages": per_stage, "summaries": summaries,
+        "active_rank": deepest_needed, "borders": borders_measured,
         "ratio_with_summaries": (curve_wall - shared + summaries) / linear_cost, "contact_points": contact_points,
         "shared_final_solves": sum(bool(r.contact.solution.info.get("curve", {}).get("shared_final_solves"))
                                    for r in curve),
@@ -164,22 +187,25 @@ def main(argv=None) -> dict:
     ap.add_argument("--repeat", type=int, default=3, help="timed linear solves (the best is kept)")
     ap.add_argument("--control", choices=("force", "indentation"), default="force",
                     help="the curve's points: forces (the target) or indentations")
-    ap.add_argument("--points", default="default", choices=["default", "vertices", "vertices+midpoints"],
+    ap.add_argument("--contact-points", default="default", choices=["default", "vertices", "vertices+midpoints"],
                     help="[solver] contact_points (default: the case's, i.e. the package default vertices+midpoints)")
+    ap.add_argument("--borders", default="", help="comma-separated row counts k: also time the factorisation "
+                    "bordered by the k rows of smallest G")
     ap.add_argument("--worker", nargs="*")
     args = ap.parse_args(argv)
     if args.worker:
-        res = worker(int(args.worker[0]), int(args.worker[1]), int(args.worker[2]), args.worker[3], args.worker[4])
+        res = worker(int(args.worker[0]), int(args.worker[1]), int(args.worker[2]), args.worker[3], args.worker[4],
+                     args.worker[5] if len(args.worker) > 5 else "")
         common.emit(res)
         return res
     n = args.n or (40 if args.quick else 112)
     points = args.points or (5 if args.quick else 20)
     info = common.machine()
-    r = common.run_worker(Path(__file__), [str(n), str(points), str(args.repeat), args.control, args.points],
-                          timeout=7200.0)
+    r = common.run_worker(Path(__file__), [str(n), str(points), str(args.repeat), args.control, args.contact_points,
+                                           args.borders], timeout=7200.0)
     print(f"# A {points}-point force–indentation curve ({args.control} control) vs one linear solve "
           f"({CASE.name}, mesh {n}×{n}, {r['dofs']} dofs, {r['constraints']} contact rows, contact points: "
-          f"{args.points})")
+          f"{args.contact_points})")
     print(common.machine_line(info))
     lin = r["linear_factorize"] + r["linear_solve"]
     print(common.table(
@@ -193,15 +219,23 @@ def main(argv=None) -> dict:
           points]]))
     print("curve, after its mesh and assembly (s): " + ", ".join(f"{k} {v:.2f}" for k, v in r["curve_stages"].items())
           + f"; points whose final check ran on the block solves: {r['shared_final_solves']} of {points}")
+    print("(curve s: a point's own stages; the first holds the mesh, assembly and factorisation, and a force curve's "
+          "points share their final solves)")
     print(common.table(["force N", "travel m", "active", "iterations curve", "iterations naive", "curve s", "naive s"],
                        [[x["force"], x["travel"], x["active"], x["iterations_curve"], x["iterations_naive"],
                          x["seconds_curve"], x["seconds_naive"]] for x in r["rows"]]))
+    print(f"the curve's active rows reach rank {r['active_rank']} of {r['constraints']} in the order of G (the "
+          "screening's: above substructure.MIN_UNKNOWNS unknowns the factorisation is bordered by the first "
+          "screening.FRACTION of them)")
+    if r["borders"]:
+        print(common.table(["border rows (smallest G)", "factorise s", "× linear"],
+                           [[b["rows"], b["seconds"], b["seconds"] / lin] for b in r["borders"]]))
     print("largest relative difference curve vs naive: " + ", ".join(f"{k} {v:.1e}" for k, v in
                                                                       r["worst_difference"].items()))
     target = common.target(round(r["ratio"], 3), GOAL, f"seconds of a {points}-point curve (after its mesh and "
                            "assembly) / seconds of one linear factorise + solve", "one linear solve of the same mesh",
                            naive_ratio=round(r["naive_ratio"], 3), dofs=r["dofs"], points=points, control=args.control,
-                           with_summaries=round(r["ratio_with_summaries"], 3), contact_points=args.points,
+                           with_summaries=round(r["ratio_with_summaries"], 3), contact_points=args.contact_points,
                            end_to_end=round(r["ratio_end_to_end"], 3))
     out = {"targets": {"curve_vs_linear": target}, "run": r, "machine": info}
     print(json.dumps(out))

@@ -648,7 +648,8 @@ def contact_result(case: Case, d: Discretization, opts: SolverOptions, timer: Ti
         contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
                                 gap=op.gap(U, delta), delta=delta,
                                 outside=penetration_outside(space, punches, U, delta),
-                                between=_penetration_between(space, punches, opts.contact_points, U, delta),
+                                between=_penetration_between(space, punches, opts.contact_points, U, delta,
+                                                             d.shared, op),
                                 derive=derive)
         if not lazy:
             contact.zone  # noqa: B018 — made now, inside the post-processing stage
@@ -698,15 +699,24 @@ def _check_summary(result: Result, summary: dict[str, Any]) -> None:
 
 
 def _penetration_between(space: ShellSpace, punches: list[Punch], points: str, U: np.ndarray,
-                         delta: np.ndarray | None) -> np.ndarray:
+                         delta: np.ndarray | None, shared: dict | None = None,
+                         rows: ContactOperator | None = None) -> np.ndarray:
     """Largest [Π]₋ per punch at the zone's edge midpoints (zero when they are constrained too).
 
     Constraints at vertices only (the paper's K_h, MODEL.md §7) let the shell bend into the punch
     between them; on a ring contact around a coarse circumference this can be most of the overlap.
+    ``shared`` (``Discretization.shared``) keeps the midpoints' operator for the next point whose rows are
+    ``rows``' very rows (a force curve: ``curves._operator``).
     """
     if points != "vertices":
         return np.zeros(len(punches))
-    op = contact_operator(space, punches, "vertices+midpoints")
+    kept = None if shared is None else shared.get("between")
+    if kept is not None and rows is not None and kept[0] is rows.B:
+        op = kept[1]
+    else:
+        op = contact_operator(space, punches, "vertices+midpoints")
+        if shared is not None and rows is not None:
+            shared["between"] = (rows.B, op)
     gap = op.gap(U, delta)
     mid = op.facet >= 0
     return np.array([float(np.max(-gap[mid & (op.punch == k)], initial=0.0)) for k in range(len(punches))]).clip(0)

@@ -411,7 +411,8 @@ class Workspace:
         the first check's solves and products, made already (``Unfinished.finish``). With ``finish`` off
         (``Workspace``), the ``Unfinished`` point instead."""
         if not self.finish:
-            return Unfinished(self, lam, delta, tol, method, iterations, history, refine, info)
+            return Unfinished(self, lam, delta, tol, method, iterations, history, refine, info,
+                              spent=time.perf_counter() - self.t0)
         qp = self.qp
         lam = np.maximum(lam, 0.0)
         # S from the dense Schur complement differs from the solves' S by ~1e-10 relative: one face
@@ -481,6 +482,8 @@ class Unfinished:
     history: list
     refine: int
     info: dict | None
+    #: seconds the method took to get here
+    spent: float = 0.0
     #: when the method stopped: the time until ``finish`` is not the point's (``Workspace.result``'s total)
     stopped: float = field(default_factory=time.perf_counter)
 

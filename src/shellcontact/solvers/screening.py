@@ -212,11 +212,11 @@ def solve_screened_curve(
     share = (time.perf_counter() - t0) / max(len(waiting), 1)
     out = []
     for k, (qp, u) in enumerate(zip(qps, pending)):
-        t1 = time.perf_counter()
         try:
             sol = u.finish(shared[k]) if isinstance(u, Unfinished) else u
         except SolverError:
             sol = None  # the check failed even after refinement on the face: the point alone
+        t1 = time.perf_counter()
         if sol is not None:
             sol.timings["solve"] = sol.timings.get("solve", 0.0) + share
             sol.timings["total"] = sol.timings.get("total", 0.0) + share
@@ -235,6 +235,8 @@ def solve_screened_curve(
         start[order[u.active]] = True
         alone = solve_screened(qp, rows, solver, factorization, tol=tol, initial_active=start,
                                callback=callbacks[k], **kw)
+        if isinstance(u, Unfinished):  # its first attempt counts too
+            alone.timings["total"] += u.spent + share
         alone.info["curve"] = {"shared_final_solves": False}
         out.append(alone)
     return out
