@@ -198,3 +198,18 @@ def test_a_curve_point_checks_its_summary_when_first_asked(monkeypatch):
     warm[1].solution.U[:] = np.nan
     with pytest.raises(SolverError, match="non-finite result"):
         warm[1].summary()
+
+
+def test_a_curve_point_beyond_the_linear_range_comes_after_the_points_before_it():
+    """A force curve whose last force moves the punch past the linear range: the points before it come out, as
+    from a loop of separate solves, then the same InputError as its lone solve."""
+    punch, key, _ = CURVES["force"]
+    points = cases(panel(punch), key, [2e4, 6e4, 5e7])
+    with pytest.raises(InputError, match="punch.0.force") as lone:
+        solve(points[-1])
+    got = []
+    with pytest.raises(InputError, match="punch.0.force") as family:
+        for r in solve_family(points):
+            got.append(r)
+    assert str(family.value) == str(lone.value)
+    assert_same(got, [solve(c) for c in points[:2]], RTOL)

@@ -140,7 +140,7 @@ def test_curve_points_share_their_final_solves_and_equal_lone_solves(name: str, 
     else:
         rows = np.sort(order[-max(4, qp.m // 4):])
     fac = factorize_contact(qp.A, qp.B[rows], min_unknowns=0)
-    curve = solve_screened_curve(points, rows, solver, fac, tol=1e-10)
+    curve = list(solve_screened_curve(points, rows, solver, fac, tol=1e-10))
     shared = [sol.info["curve"]["shared_final_solves"] for sol in curve]
     assert all(shared) if prediction == "good" else not all(shared)
     for p, sol in zip(points, curve):
@@ -153,6 +153,28 @@ def test_curve_points_share_their_final_solves_and_equal_lone_solves(name: str, 
         res = kkt_residuals(p, sol.U, sol.Lambda, sol.delta, fac)  # the whole QP's, evaluated afresh
         assert res["duality_gap"] == pytest.approx(sol.residuals["duality_gap"], abs=1e-12)
         assert res["stationarity"] == pytest.approx(sol.residuals["stationarity"], rel=1e-6, abs=1e-16)
+
+
+def test_a_failing_curve_point_comes_after_the_points_before_it() -> None:
+    """A point whose solve fails: the points before it are finished and yielded, then its error is raised."""
+    from shellcontact.errors import SolverError
+
+    points = _points("beam-force")
+    calls = []
+
+    def solver(qp, **kw):
+        calls.append(1)
+        if len(calls) == 3:
+            raise SolverError("active-set: no convergence to tolerance 1e-10", iterations=1)
+        return solve_active_set(qp, **kw)
+
+    got = []
+    with pytest.raises(SolverError, match="no convergence"):
+        for sol in solve_screened_curve(points, None, solver, factorize(points[0].A)):
+            got.append(sol)
+    assert len(got) == 2 and all(s.info["curve"]["shared_final_solves"] for s in got)
+    for p, sol in zip(points, got):
+        assert np.array_equal(sol.active, solve_active_set(p).active)
 
 
 def test_curve_points_must_share_stiffness_load_and_rows() -> None:

@@ -35,12 +35,12 @@ Schur blocks (MODEL.md §8), and its Result is that of ``analysis.solve`` of its
   point's multipliers first, each warm-started from its predecessor's, then the final checks of all points
   with their solves in blocks (``screening.solve_screened_curve``: one block solve for the points' U, one for
   their duality-gap terms; at 211k unknowns 25 ms per point and solve instead of 68 ms). A point whose check
-  fails, or whose rows outside the border penetrate, runs the lone screened solve. The Results come
-  together after the last point's multipliers, and each point's contact zone, rim and summary (stresses at
-  every vertex, reactions, equilibrium) are made when first asked for (``analysis.contact_result(lazy=True)``:
-  a non-finite value is refused at that first ``summary()``); a curve read for its forces and travels does
-  not pay for them. A point's punches that differ from the first point's in their force only reuse its
-  contact rows (``_operator``).
+  fails, or whose rows outside the border penetrate, runs the lone screened solve. The Results come after the
+  last point's multipliers (a point that fails is raised after the points before it), and each point's
+  contact zone, rim and summary (stresses at every vertex, reactions, equilibrium) are made when first asked
+  for (``analysis.contact_result(lazy=True)``: a non-finite value is refused at that first ``summary()``); a
+  curve read for its forces and travels does not pay for them. A point's punches that differ from the first
+  point's in their force only reuse its contact rows (``_operator``).
   ``warm_start=False``: every point runs exactly as ``analysis.solve`` of its case alone, on a
   factorisation of the same matrix, so its Result is bit-identical to it (for a backend whose
   factorisation and solves are deterministic: the single-threaded ones here are) and independent of the
@@ -343,10 +343,9 @@ def _solve_family(cases: list[Case], placed: list[list[Punch]], method: str | No
                     operators = [d.operator] + [_operator(base.space, d.operator, placed[0], p, opts.contact_points)
                                                 for p in placed[1:]]
                 if warm_start and _one_qp(operators, opts):  # a force curve: its points' final solves in blocks
-                    results = _solve_curve(cases, placed, base, operators, timer, method, backend, max_memory,
-                                           progress, factorizer)
                     keep_memo = True  # the points make their zone, rim and summary when asked: on the memo
-                    yield from results
+                    yield from _solve_curve(cases, placed, base, operators, timer, method, backend, max_memory,
+                                            progress, factorizer)
                     return
                 if warm_start and not _same_borders(operators):  # equal to round-off: one border for differing rows
                     factorizer.cartesian = Cartesian(base.space, base.reduction, operators, opts.contact_points)
@@ -406,7 +405,7 @@ def _one_qp(operators: list[ContactOperator | None], opts: SolverOptions) -> boo
 def _solve_curve(cases: list[Case], placed: list[list[Punch]], base: Discretization,
                  operators: list[ContactOperator | None], timer: Timer, method: str | None, backend: str | None,
                  max_memory: float | str | None, progress: FamilyProgress | None,
-                 factorizer: SharedFactorizer) -> list[Result]:
+                 factorizer: SharedFactorizer) -> Iterator[Result]:
     """A warm-started family whose QPs differ only in P (``_one_qp``): every point's multipliers on the one
     factorisation, warm-started from its predecessor, then the final checks of all points with their solves
     in blocks (``screening.solve_screened_curve``); each Result's contact zone, rim and summary are made when
@@ -435,14 +434,12 @@ def _solve_curve(cases: list[Case], placed: list[list[Punch]], base: Discretizat
         for i in range(len(cases))]
     solutions = solve_screened_curve([s.qp for _, _, s in setups], screen, METHODS[opts.method].load(), fac,
                                      tol=opts.tolerance, callbacks=callbacks, **kw)
-    results = []
     for i, ((case, d, setup), cs, t, o) in enumerate(zip(setups, solutions, timers, options)):
         t.times["solve"] = t.times.get("solve", 0.0) + cs.timings.get("total", 0.0)
         result = contact_result(case, d, o, t, setup.info, cs, lazy=True)
         result.timings["total"] = sum(v for k, v in result.timings.items() if k not in ("total", "output"))
         result.info["family"] = {"index": i, "points": len(cases), "factorizations": factorizer.factorizations}
-        results.append(result)
-    return results
+        yield result
 
 
 def _same_rows(a: np.ndarray | None, b: np.ndarray | None) -> bool:

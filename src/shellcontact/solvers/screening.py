@@ -28,7 +28,7 @@ by the 2 641 screened rows (4.3 s against 1.8 s for A alone), the same 675 penet
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -160,7 +160,7 @@ def solve_screened_curve(
     initial_active: np.ndarray | None = None,
     callbacks: Sequence[Callable[[dict], None] | None] | None = None,
     **kw,
-) -> list[ContactSolution]:
+) -> Iterator[ContactSolution]:
     """The points of a curve: QPs with the same A, F and B (a force-controlled punch at several forces: only
     P differs), each the solution of ``solve_screened(qp, rows, solver, factorization, tol)`` to the tolerance.
 
@@ -174,24 +174,37 @@ def solve_screened_curve(
        ``solve_screened``; any other point (round-off in S, an outside row that touches) runs
        ``solve_screened`` alone, from its active set.
 
-    ``callbacks[k]``: the solver's ``callback`` for point k. ``kw`` go to the solver."""
+    ``callbacks[k]``: the solver's ``callback`` for point k. ``kw`` go to the solver. Yields the points'
+    solutions in order; when a point's solve fails (SolverError, or any other error), the points before it are
+    yielded, then its error is raised, as a loop of ``solve_screened`` would. Points of another stiffness,
+    load or rows than the first: InputError, at once."""
     qps = list(qps)
-    if not qps:
-        return []
-    first = qps[0]
+    first = qps[0] if qps else None
     for k, qp in enumerate(qps[1:], 1):
         if not _same_matrix(qp.A, first.A) or not np.array_equal(qp.F, first.F) or not same_entries(qp.B, first.B):
             raise InputError("qps", f"point {k} has another stiffness, load or contact rows than point 0: "
                              "solve it with solve_screened")
-    callbacks = list(callbacks) if callbacks is not None else [None] * len(qps)
-    m = first.m
+    return _solve_curve(qps, rows, solver, factorization, tol, initial_active,
+                        list(callbacks) if callbacks is not None else [None] * len(qps), kw)
+
+
+def _solve_curve(qps: list[ContactQP], rows: np.ndarray | None, solver: Callable, factorization: Factorization,
+                 tol: float, initial_active: np.ndarray | None, callbacks: list, kw: dict) -> Iterator[ContactSolution]:
+    if not qps:
+        return
+    m = qps[0].m
     order = np.arange(m) if rows is None else np.asarray(rows, dtype=np.int64)
     active = None if initial_active is None else np.asarray(initial_active, dtype=bool)
     pending: list[Unfinished | ContactSolution] = []
+    failure: Exception | None = None
     for qp, callback in zip(qps, callbacks):
         sub = qp if rows is None else qp.restrict(order)
-        u = solver(sub, tol=tol, factorization=factorization, finish=False, callback=callback,
-                   initial_active=None if active is None else active[order], **kw)
+        try:
+            u = solver(sub, tol=tol, factorization=factorization, finish=False, callback=callback,
+                       initial_active=None if active is None else active[order], **kw)
+        except Exception as exc:  # noqa: BLE001 — the points before it are finished first, then it is raised
+            failure = exc
+            break
         pending.append(u)
         active = np.zeros(m, dtype=bool)
         active[order[u.active]] = True
@@ -210,7 +223,6 @@ def solve_screened_curve(
         absA_absU = ws.qp.abs_A @ np.abs(U)
         shared = {k: (U[:, j], AU[:, j], Ainv_r[:, j], absA_absU[:, j]) for j, k in enumerate(waiting)}
     share = (time.perf_counter() - t0) / max(len(waiting), 1)
-    out = []
     for k, (qp, u) in enumerate(zip(qps, pending)):
         try:
             sol = u.finish(shared[k]) if isinstance(u, Unfinished) else u
@@ -229,7 +241,7 @@ def solve_screened_curve(
                                                          list(sol.history), sol.timings, [int(order.size)], t1)
                 whole.timings["total"] = sol.timings["total"] + time.perf_counter() - t1
                 whole.info["curve"] = {"shared_final_solves": True}
-                out.append(whole)
+                yield whole
                 continue
         start = np.zeros(m, dtype=bool)
         start[order[u.active]] = True
@@ -238,8 +250,9 @@ def solve_screened_curve(
         if isinstance(u, Unfinished):  # its first attempt counts too
             alone.timings["total"] += u.spent + share
         alone.info["curve"] = {"shared_final_solves": False}
-        out.append(alone)
-    return out
+        yield alone
+    if failure is not None:
+        raise failure
 
 
 def _same_matrix(a, b) -> bool:
