@@ -81,7 +81,9 @@ def test_a_curve_equals_its_points_solved_alone(curve, substructure):
     alone = [solve(c) for c in points]
     forces = [r.summary()["contact"][0]["force_magnitude"] for r in alone]
     assert np.all(np.diff(forces) > 0) and forces[0] > 0  # a real curve: every point in contact, each deeper
-    warm = list(solve_family(points))
+    seen = set()
+    warm = list(solve_family(points, progress=lambda i, it, res: seen.add(i)))
+    assert seen == set(range(len(points)))  # every point reports its solver's iterations
     # a force curve's points differ in P only: their final checks share block solves (screening.solve_screened_curve)
     assert all(("curve" in r.contact.solution.info) == (curve == "force") for r in warm)
     assert_same(warm, alone, RTOL)

@@ -400,13 +400,17 @@ class Result:
         return out
 
 
+def solver_callback(progress: Callable[[int, dict], None]) -> Callable[[dict], None]:
+    """The solvers' ``callback(record)`` as ``progress(iteration, numeric fields of the record)``."""
+    return lambda rec: progress(int(rec.get("iteration", 0)), {k: v for k, v in rec.items() if isinstance(v, float)})
+
+
 def _solve_contact(qp: ContactQP, opts: SolverOptions, fac, initial_U_r: np.ndarray | None,
                    initial_active: np.ndarray | None, eps: float, progress=None, screen: np.ndarray | None = None):
     """Run the registered method ``opts.method`` (solvers.methods) on the reduced QP."""
     kw: dict[str, Any] = {"tol": opts.tolerance, "factorization": fac}
-    if progress is not None:  # progress(iteration, numeric fields of the solver's record)
-        kw["callback"] = lambda rec: progress(
-            int(rec.get("iteration", 0)), {k: v for k, v in rec.items() if isinstance(v, float)})
+    if progress is not None:
+        kw["callback"] = solver_callback(progress)
     if opts.max_iterations is not None:
         kw["max_iterations"] = opts.max_iterations
     method = METHODS[opts.method]
@@ -573,19 +577,19 @@ class ContactSetup:
 
 def prepare_contact(case: Case, d: Discretization, opts: SolverOptions, timer: Timer, *,
                     warm_start: Result | None = None, max_memory: float | str | None = None,
-                    factorizer: Factorizer | None = None, initial_active: np.ndarray | None = None) -> ContactSetup:
-    """The reduced QP of ``case``, its factorisation (by ``factorizer``) and its start: ``warm_start`` (a Result),
-    a nested coarser solve (``solver.nested``), or the active rows ``initial_active``."""
+                    factorizer: Factorizer | None = None) -> ContactSetup:
+    """The reduced QP of ``case``, its factorisation (by ``factorizer``) and its start: ``warm_start`` (a Result)
+    or a nested coarser solve (``solver.nested``)."""
     factorizer = factorizer or Factorizer()
     space, red, op = d.space, d.reduction, d.operator
     info: dict[str, Any] = {"unknowns": int(d.Ar.shape[0])}
     start = warm_start
-    if start is None and initial_active is None and opts.nested and case.mesh.refine > 0:
+    if start is None and opts.nested and case.mesh.refine > 0:
         coarse = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, refine=case.mesh.refine - 1))
         with timer.stage("nested"):
             start = solve(coarse, method=opts.method, backend=opts.backend, max_memory=max_memory)
         info["nested_iterations"] = [start.info.get("nested_iterations", []), start.contact.solution.iterations]
-    initial_U_r = None
+    initial_U_r = initial_active = None
     if start is not None:
         U0 = start.solution.U if start.solution.space is space else start.solution.prolongate(space)
         initial_U_r = U0[red.free]

@@ -68,6 +68,7 @@ from .analysis import (
     discretize,
     prepare_contact,
     solve_discretized,
+    solver_callback,
 )
 from .arguments import expect_callable, expect_choice
 from .case import Case, expect_case
@@ -429,9 +430,8 @@ def _solve_curve(cases: list[Case], placed: list[list[Punch]], base: Discretizat
     if any(s.factorization is not fac or not _same_rows(s.screen, screen) for _, _, s in setups):
         raise SolverError("curve: the points do not share one factorisation and row set")  # _one_qp rules it out
     kw: dict = {} if opts.max_iterations is None else {"max_iterations": opts.max_iterations}
-    callbacks = [None if progress is None else (lambda rec, i=i: progress(
-        i, int(rec.get("iteration", 0)), {k: v for k, v in rec.items() if isinstance(v, float)}))
-        for i in range(len(cases))]
+    callbacks = [None if progress is None else solver_callback(lambda it, res, i=i: progress(i, it, res))
+                 for i in range(len(cases))]
     solutions = solve_screened_curve([s.qp for _, _, s in setups], screen, METHODS[opts.method].load(), fac,
                                      tol=opts.tolerance, callbacks=callbacks, **kw)
     for i, ((case, d, setup), cs, t, o) in enumerate(zip(setups, solutions, timers, options)):
