@@ -215,3 +215,17 @@ def test_a_curve_point_beyond_the_linear_range_comes_after_the_points_before_it(
             got.append(r)
     assert str(family.value) == str(lone.value)
     assert_same(got, [solve(c) for c in points[:2]], RTOL)
+
+
+def test_a_floating_ring_force_curve_equals_its_points_solved_alone():
+    """A pipe held by the two plates alone (examples/ring_stiffness.toml, coarser): the rigid motions the plates
+    restrain are columns of D with the travel, so the points still differ in P only and finish together."""
+    from pathlib import Path
+
+    from shellcontact import load_case
+
+    path = Path(__file__).resolve().parent.parent / "examples" / "ring_stiffness.toml"
+    points = [load_case(path, [f"punch.0.force={f}", "mesh.nphi=32"]) for f in (100.0, 400.0)]
+    warm = list(solve_family(points))
+    assert all(r.contact.solution.info["curve"]["shared_final_solves"] for r in warm)
+    assert_same(warm, [solve(c) for c in points], RTOL)
