@@ -132,13 +132,10 @@ def solve_screened(
             history.append({**rec, "screening_round": rnd})
         for key, val in sol.timings.items():
             timings[key] = timings.get(key, 0.0) + val
-        g = qp.gap(sol.U, sol.delta)
-        lscale = length_scale(qp, g)
-        outside = ~inside & (g < 0)
-        pen_out = float(-g[outside].min()) if outside.any() else 0.0
+        g, lscale, pen_out = _outside_penetration(qp, sol, inside)
         if pen_out <= (tol * lscale if exact else 0.0):
             return _whole(qp, sol, order, g, lscale, iterations, history, timings, sizes, t0)
-        new = np.flatnonzero(outside)
+        new = np.flatnonzero(~inside & (g < 0))
         active = np.zeros(m, dtype=bool)
         active[order[sol.active]] = True
         active[new] = True  # PDAS: the penetrating rows start active
@@ -181,7 +178,8 @@ def solve_screened_curve(
     qps = list(qps)
     first = qps[0] if qps else None
     for k, qp in enumerate(qps[1:], 1):
-        if not _same_matrix(qp.A, first.A) or not np.array_equal(qp.F, first.F) or not same_entries(qp.B, first.B):
+        same_A = qp.A is first.A or same_entries(qp.A, first.A)  # one object for the points of a curve
+        if not same_A or not np.array_equal(qp.F, first.F) or not same_entries(qp.B, first.B):
             raise InputError("qps", f"point {k} has another stiffness, load or contact rows than point 0: "
                              "solve it with solve_screened")
     return _solve_curve(qps, rows, solver, factorization, tol, initial_active,
@@ -194,6 +192,8 @@ def _solve_curve(qps: list[ContactQP], rows: np.ndarray | None, solver: Callable
         return
     m = qps[0].m
     order = np.arange(m) if rows is None else np.asarray(rows, dtype=np.int64)
+    inside = np.zeros(m, dtype=bool)
+    inside[order] = True
     active = None if initial_active is None else np.asarray(initial_active, dtype=bool)
     pending: list[Unfinished | ContactSolution] = []
     failure: Exception | None = None
@@ -228,18 +228,15 @@ def _solve_curve(qps: list[ContactQP], rows: np.ndarray | None, solver: Callable
             sol = u.finish(shared[k]) if isinstance(u, Unfinished) else u
         except SolverError:
             sol = None  # the check failed even after refinement on the face: the point alone
-        t1 = time.perf_counter()
         if sol is not None:
             sol.timings["solve"] = sol.timings.get("solve", 0.0) + share
             sol.timings["total"] = sol.timings.get("total", 0.0) + share
-            g = qp.gap(sol.U, sol.delta)
-            lscale = length_scale(qp, g)
-            outside = np.ones(m, dtype=bool)
-            outside[order] = False
-            if rows is None or float(-g[outside].min(initial=0.0)) <= tol * lscale:
+            g, lscale, pen_out = _outside_penetration(qp, sol, inside)
+            if pen_out <= tol * lscale:  # (no row is outside without screening)
+                # _whole's total runs from its start argument: the point's own seconds before this check
+                began = time.perf_counter() - sol.timings["total"]
                 whole = sol if rows is None else _whole(qp, sol, order, g, lscale, sol.iterations,
-                                                         list(sol.history), sol.timings, [int(order.size)], t1)
-                whole.timings["total"] = sol.timings["total"] + time.perf_counter() - t1
+                                                         list(sol.history), sol.timings, [int(order.size)], began)
                 whole.info["curve"] = {"shared_final_solves": True}
                 yield whole
                 continue
@@ -255,10 +252,12 @@ def _solve_curve(qps: list[ContactQP], rows: np.ndarray | None, solver: Callable
         raise failure
 
 
-def _same_matrix(a, b) -> bool:
-    """The same sparse matrix: one object, or one set of arrays (``ContactQP`` wraps the stiffness it is
-    given in a new object), or equal entries."""
-    return a is b or (a.data is b.data and a.indices is b.indices and a.indptr is b.indptr) or same_entries(a, b)
+def _outside_penetration(qp: ContactQP, sol: ContactSolution, inside: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """The whole QP's gaps g at ``sol``, their length scale (``kkt.length_scale``) and the deepest penetration
+    of a row not ``inside`` the restricted QP (0 if none)."""
+    g = qp.gap(sol.U, sol.delta)
+    outside = ~inside & (g < 0)
+    return g, length_scale(qp, g), float(-g[outside].min()) if outside.any() else 0.0
 
 
 def _whole(qp: ContactQP, sol: ContactSolution, order: np.ndarray, g: np.ndarray, lscale: float,
