@@ -228,7 +228,10 @@ def test_solve_takes_the_screened_path_and_agrees() -> None:
         assert "screening" not in plain.contact.solution.info
         assert np.array_equal(screened.contact.active, plain.contact.active)
         f_s, f_p = (r.contact.summary()[0]["force_magnitude"] for r in (screened, plain))
-        assert f_s == pytest.approx(f_p, rel=1e-8)
+        # the penalty's force is a penetration times 1/ε (ε = 4.8e-16 of the stiffness scale at the end of its
+        # continuation), so the two factorisations' round-off reaches it amplified: measured 1.3e-8 on an AMD
+        # EPYC (MKL's AMD code path), below 1e-8 on Intel; the exact method's force agrees to round-off
+        assert f_s == pytest.approx(f_p, rel=1e-8 if method == "active-set" else 1e-7)
         if method == "active-set":
             assert max(screened.summary()["kkt_scaled"].values()) <= 1e-10
         else:  # the penalised equation's backward error, as the penalty's own stopping test
