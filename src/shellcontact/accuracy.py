@@ -347,7 +347,7 @@ def describe(est: Estimate) -> list[str]:
     lines = [f"accuracy: from {len(est.levels)} meshes, finest first: {meshes}"]
     for path, e in est.accuracy.items():
         v = e["estimate"]
-        how = "not estimated" if v is None else f"{v:.2%}" + (
+        how = "not estimated" if v is None else f"{100 * v:.2g} %" + (
             f" (observed order {e['order']:.2g})" if e["order"] is not None else " (order 1 assumed)")
         met = "" if est.tolerance is None or v is None else (" met" if v <= est.tolerance else " NOT met")
         lines.append(f"  {path:<34} {e['value']:<13.6g} ± {how}{met}")

@@ -148,7 +148,7 @@ def _print_summary(con: Console, s: dict) -> None:
 
     def q(value: float, kind: str, spec: str = ".6g", path: str = "") -> str:  # a figure with its unit (and
         e = acc.get(path, {}).get("estimate")  # with --estimate its estimated relative error)
-        return with_unit(format(value, spec), kind, system) + (f" (±{e:.1%})" if e is not None else "")
+        return with_unit(format(value, spec), kind, system) + (f" (±{100 * e:.2g} %)" if e is not None else "")
 
     con.print(f"dofs {s['dofs']}  elements {s['elements']}  energy {q(s['energy'], 'energy')}  "
               f"max|w| {q(s['max_abs_w'], 'length', path='max_abs_w')}")
