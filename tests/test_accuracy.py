@@ -165,6 +165,20 @@ def test_refine_to_reaches_the_tolerance_it_reports():
     assert any("tolerance 0.001 is not met" in w for w in est.warnings())
 
 
+def test_refine_to_stops_at_the_memory_guard_with_the_results_it_reached():
+    """A memory limit between the needs of mesh.refine = 0 and 1 (sizing.estimate): the case's own mesh is
+    solved and estimated, the refinement stops naming the guard, and nothing beyond is built."""
+    from shellcontact import sizing
+
+    case = sc.load_case(EXAMPLES / "scordelis_lo.toml", sets=["mesh.nx=8", "mesh.nphi=8"])
+    finer = sc.load_case(EXAMPLES / "scordelis_lo.toml", sets=["mesh.nx=8", "mesh.nphi=8", "mesh.refine=1"])
+    limit = 0.5 * (sizing.estimate(case).bytes + sizing.estimate(finer).bytes)
+    est = accuracy.refine_to(case, 1e-6, max_memory=limit)
+    assert [lv["mesh"] for lv in est.levels] == [{"refine": 0, "nx": n, "nphi": n} for n in (8, 4, 2)]
+    assert est.stopped.startswith("the memory guard stopped the refinement: mesh.refine") and not est.met
+    assert est.summary()["refinement"]["stopped"] == est.stopped
+
+
 # -- the command line -------------------------------------------------------------------------------------------
 def test_run_estimate_writes_accuracy_and_warns(tmp_path):
     out = tmp_path / "out"

@@ -197,7 +197,7 @@ class Estimate:
         out = []
         if above:
             out.append("accuracy: estimated discretisation error above 1 %: " + ", ".join(
-                f"{p} {v:.2%}" for p, v in sorted(above.items(), key=lambda kv: -kv[1]))
+                f"{p} {100 * v:.3g} %" for p, v in sorted(above.items(), key=lambda kv: -kv[1]))
                 + "; refine the mesh (--set mesh.refine=N, or run --accuracy 1e-2)")
         if missing:
             out.append("accuracy: not estimated (missing on the coarser mesh): " + ", ".join(missing)

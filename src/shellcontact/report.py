@@ -298,7 +298,7 @@ def _accuracy(s: Mapping[str, Any]) -> str:
         return ""
     units, tol, levels = s.get("units", {}), ref.get("tolerance"), ref.get("levels", [])
     rows = [[path, e["value"], _Unit(units.get(f"accuracy.{path}.value", "–")),
-             "not estimated" if e["estimate"] is None else f"{e['estimate']:.2%}"
+             "not estimated" if e["estimate"] is None else f"{100 * e['estimate']:.2g} %"
              + (" (above 1 %)" if e["estimate"] > 0.01 else ""),
              "1 (assumed)" if e["order"] is None else f"{e['order']:.2g}",
              *([] if tol is None else ["met" if e.get("met") else "not met"])] for path, e in acc.items()]
