@@ -179,6 +179,28 @@ def test_refine_to_stops_at_the_memory_guard_with_the_results_it_reached():
     assert est.summary()["refinement"]["stopped"] == est.stopped
 
 
+def test_a_failing_coarsest_mesh_leaves_two_meshes_and_a_failing_next_one_is_named(monkeypatch):
+    from shellcontact import analysis
+
+    real = analysis.solve
+
+    def solve(case, **kw):  # a coarse mesh the case cannot be solved on (e.g. too coarse for its punch)
+        if case.mesh.nx <= failing:
+            raise InputError("punch.0.zone", "no constraint point in the zone")
+        return real(case, **kw)
+
+    monkeypatch.setattr(analysis, "solve", solve)
+    case = sc.load_case(EXAMPLES / "scordelis_lo.toml", sets=["mesh.nx=8", "mesh.nphi=8"])
+    failing = 2
+    est = accuracy.estimate(case)
+    assert [lv["dofs"] for lv in est.levels] == [1272, 368]
+    assert est.accuracy["probes.0.w"]["order"] is None and est.accuracy["probes.0.w"]["estimate"] > 0
+    failing = 4
+    with pytest.raises(InputError) as e:
+        accuracy.estimate(case)
+    assert e.value.field == "punch.0.zone" and "on the next coarser mesh" in e.value.message
+
+
 # -- the command line -------------------------------------------------------------------------------------------
 def test_run_estimate_writes_accuracy_and_warns(tmp_path):
     out = tmp_path / "out"

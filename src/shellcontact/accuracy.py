@@ -32,7 +32,7 @@ from fnmatch import fnmatchcase
 from typing import Any
 
 from .arguments import expect_callable, expect_integer
-from .errors import InputError
+from .errors import InputError, ShellContactError
 
 #: the headline quantities by summary path (``*``: every list index or key), each with the path of the
 #: number its relative error is measured against (None: its own value). ONE list: edit here.
@@ -272,8 +272,17 @@ def estimate(case, levels: int = 3, *, max_memory: float | str | None = None,
         raise no_coarser(case)
     done: list[dict[str, Any]] = []
     sums = []
-    for c in reversed(ladder[1:]):  # the coarse meshes first: cheap, and a failure there costs little
-        sums.insert(0, _solve_level(c, max_memory, done, announce, coarse=True)[1])
+    for k, c in reversed(list(enumerate(ladder[1:], 1))):  # the coarse meshes first: cheap, a failure costs little
+        try:
+            sums.insert(0, _solve_level(c, max_memory, done, announce, coarse=True)[1])
+        except ShellContactError as exc:
+            if k == 1 and isinstance(exc, InputError):  # no estimate without the next coarser mesh
+                raise InputError(exc.field, f"{exc.message} (on the next coarser mesh, {_mesh_of(c)}, which the "
+                                 "accuracy estimate solves: refine the case's mesh)") from exc
+            if k == 1:
+                raise
+            logging.getLogger("shellcontact").info("accuracy: the coarsest mesh %s failed (%s); two meshes only",
+                                                   _mesh_of(c), exc)
     result, fine = _solve_level(case, max_memory, done, announce)
     sums.insert(0, fine)
     return Estimate(result, accuracy_table(sums), list(reversed(done)), summaries=sums)
