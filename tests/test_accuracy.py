@@ -65,6 +65,10 @@ def test_headlines_are_read_by_path_and_probe_components_are_relative_to_the_pro
     values = accuracy.headline_values(summary)
     assert "energy" not in values
     assert values["probes.0.u"] == (1e-18, 2.0)  # relative to |displacement|, not to itself
+    still = {**summary, "probes": [{"v": 1e-15, "displacement": [0.0, 1e-15, 0.0]}]}  # a point that hardly moves
+    assert accuracy.headline_values(still)["probes.0.v"] == (1e-15, 2e-6)  # 1e-6 max |w|
+    ring = {"contact": [{"force_magnitude": 1e-9, "total_normal_force": 5.0}]}  # a band: the resultant vanishes
+    assert accuracy.headline_values(ring)["contact.0.force_magnitude"] == (1e-9, 5.0)
     assert values["probes.0.displacement.2"] == (-2.0, 2.0)
     assert values["contact.0.rim.mean_line_force"] == (4.0, 4.0)
     assert "contact.1.rim.mean_line_force" not in values

@@ -10,10 +10,10 @@ p = log(d2/d1)/log r when they have one sign and |d1| < |d2| (the asymptotic ran
 [``MIN_ORDER``, ``MAX_ORDER``]; the error of q0 is then Richardson's d1/(r^p − 1). Otherwise (two meshes
 only, or differences that change sign or grow) the order is taken as ``ASSUMED_ORDER`` = 1: the estimate is
 |d1| itself, conservative for any quantity converging at least linearly. The relative estimate divides by
-|q0| (a probe component by the probe's displacement magnitude: a component near zero by symmetry has no
-relative error of its own). What is assumed: the meshes are in the asymptotic range and the quantity
-converges monotonically; docs/outputs.md#accuracy-of-the-headline-numbers, and the tests against closed
-forms and series values (tests/test_accuracy.py) show how far that holds.
+|q0| or by a reference size where that is larger (``HEADLINES``: a probe component by its probe's displacement
+magnitude, a resultant force by the total normal force). What is assumed: the meshes are in the asymptotic
+range and the quantity converges monotonically; docs/outputs.md#accuracy-of-the-headline-numbers, and the
+tests against closed forms and series values (tests/test_accuracy.py) show how far that holds.
 
 The headline paths are listed once, in ``HEADLINES``: read from the summary by dotted path, ``*`` standing
 for every list index or dictionary key, so a quantity added to the summary needs one line here.
@@ -34,20 +34,24 @@ from typing import Any
 from .arguments import expect_callable, expect_integer
 from .errors import InputError, ShellContactError
 
-#: the headline quantities by summary path (``*``: every list index or key), each with the path of the
-#: number its relative error is measured against (None: its own value). ONE list: edit here.
-HEADLINES: tuple[tuple[str, str | None], ...] = (
-    ("max_abs_w", None),
-    ("probes.*.u", "probes.*.displacement"),
-    ("probes.*.v", "probes.*.displacement"),
-    ("probes.*.w", "probes.*.displacement"),
-    ("probes.*.displacement.*", "probes.*.displacement"),
-    ("stresses.*.von_mises_max", None),
-    ("contact.*.force_magnitude", None),
-    ("contact.*.total_normal_force", None),
-    ("contact.*.punch_travel", None),
-    ("contact.*.zone.area", None),
-    ("contact.*.rim.mean_line_force", None),
+#: the headline quantities by summary path (``*``: every list index or key), each with the numbers its relative
+#: error is measured against besides its own size: (path, factor) pairs, the path's indices those of the
+#: headline. A probe component against its probe's displacement (one that vanishes by symmetry has no relative
+#: error of its own) and, at a point that hardly moves, 1e-6 × max |w|; a resultant force that vanishes (a band
+#: round a pipe) against the total normal force. ONE list: edit here.
+_PROBE = (("probes.*.displacement", 1.0), ("max_abs_w", 1e-6))
+HEADLINES: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = (
+    ("max_abs_w", ()),
+    ("probes.*.u", _PROBE),
+    ("probes.*.v", _PROBE),
+    ("probes.*.w", _PROBE),
+    ("probes.*.displacement.*", _PROBE),
+    ("stresses.*.von_mises_max", ()),
+    ("contact.*.force_magnitude", (("contact.*.total_normal_force", 1.0),)),
+    ("contact.*.total_normal_force", ()),
+    ("contact.*.punch_travel", ()),
+    ("contact.*.zone.area", ()),
+    ("contact.*.rim.mean_line_force", ()),
 )
 RATIO = 2.0  # element size of a mesh over that of the next finer one
 ASSUMED_ORDER = 1.0  # when no order can be observed (MODULE docstring)
@@ -82,24 +86,25 @@ def _number(v: Any) -> bool:
 
 
 def headline_values(summary: Mapping[str, Any]) -> dict[str, tuple[float, float]]:
-    """Every headline number of ``summary`` by concrete path: (value, the size its relative error refers to)."""
+    """Every headline number of ``summary`` by concrete path: (value, the size its relative error refers to:
+    the largest of its own and its references' in ``HEADLINES``)."""
     out: dict[str, tuple[float, float]] = {}
-    for pattern, scale_pattern in HEADLINES:
+    for pattern, refs in HEADLINES:
         for path, value in _walk(summary, pattern.split("."), ""):
             path = path.rstrip(".")
             if not _number(value):
                 continue
             scale = abs(float(value))
-            if scale_pattern is not None:  # the same indices as the headline's, in the scale's pattern
-                stars = [p for p, q in zip(path.split("."), pattern.split(".")) if q == "*"]
-                concrete = scale_pattern
-                for s in stars:
-                    concrete = concrete.replace("*", s, 1)
+            stars = [p for p, q in zip(path.split("."), pattern.split(".")) if q == "*"]
+            for ref_pattern, factor in refs:  # the headline's indices in the reference's pattern
+                concrete = ref_pattern
+                for star in stars[:ref_pattern.count("*")]:
+                    concrete = concrete.replace("*", star, 1)
                 ref = lookup(summary, concrete)
                 if isinstance(ref, list) and all(_number(c) for c in ref):
-                    scale = max(scale, math.sqrt(sum(float(c) ** 2 for c in ref)))
+                    scale = max(scale, factor * math.sqrt(sum(float(c) ** 2 for c in ref)))
                 elif _number(ref):
-                    scale = max(scale, abs(float(ref)))
+                    scale = max(scale, factor * abs(float(ref)))
             out[path] = (float(value), scale)
     return out
 
