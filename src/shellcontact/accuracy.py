@@ -281,7 +281,7 @@ def _solve_level(case, max_memory, levels: list[dict[str, Any]], announce: Progr
 
 
 def estimate(case, levels: int = 3, *, max_memory: float | str | None = None,
-             announce: Progress | None = None, function: str = "estimate") -> Estimate:
+             announce: Progress | None = None, function: str = "estimate", log: bool = True) -> Estimate:
     """Solve ``case`` and the ``levels − 1`` next coarser meshes (3: about 1 + 1/4 + 1/16 of one solve) and
     estimate each headline's discretisation error (module docstring). A case with no coarser mesh is
     refused (InputError naming mesh.refine); a third level that does not exist is skipped (the estimate
@@ -314,7 +314,14 @@ def estimate(case, levels: int = 3, *, max_memory: float | str | None = None,
                                                    _mesh_of(c), exc)
     result, fine = _solve_level(case, max_memory, done, announce)
     sums.insert(0, fine)
-    return Estimate(result, accuracy_table(sums), list(reversed(done)), summaries=sums)
+    return _logged(Estimate(result, accuracy_table(sums), list(reversed(done)), summaries=sums), log)
+
+
+def _logged(est: Estimate, log: bool) -> Estimate:
+    """The estimate's warnings on the package's logger, as analysis logs a result's (stderr from the CLI)."""
+    for w in est.warnings() if log else ():
+        logging.getLogger("shellcontact").warning("warning: %s", w)
+    return est
 
 
 def check_tolerance(tolerance: Any, option: str = "--accuracy") -> float:
@@ -338,7 +345,7 @@ def refine_to(case, tolerance: float, *, max_levels: int = DEFAULT_MAX_LEVELS,
 
     tolerance = check_tolerance(tolerance, "tolerance")
     max_levels = expect_integer(max_levels, "refine_to", "max_levels", 0)
-    est = estimate(case, 3, max_memory=max_memory, announce=announce, function="refine_to")
+    est = estimate(case, 3, max_memory=max_memory, announce=announce, function="refine_to", log=False)
     est.tolerance = tolerance
     current, made = case, 0
     while not est.met:
@@ -357,7 +364,7 @@ def refine_to(case, tolerance: float, *, max_levels: int = DEFAULT_MAX_LEVELS,
         est.summaries.insert(0, fine)
         est = Estimate(result, accuracy_table(est.summaries[:3]), est.levels, tolerance, None, est.summaries)
         current, made = finer, made + 1
-    return est
+    return _logged(est, True)
 
 
 def run_mode(case, estimate_only: bool, tolerance: float | None, strict: bool, max_levels: int):

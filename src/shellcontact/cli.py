@@ -217,9 +217,7 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
             result = solve(case, progress=show if con.bar else None, max_memory=args.max_memory)
         else:  # --estimate / --accuracy: the case's mesh and coarser (finer) ones; the finest mesh's result
             est = est(case, max_memory=args.max_memory, announce=con.status)
-            result = est.result
-            for w in est.warnings():
-                log.warning("warning: %s", w)
+            result = est.result  # its warnings are logged (stderr) as the solve's are
         con.clear()
         log.info("solved in %.3f s", time.perf_counter() - t0)
         summary = result.summary() if est is None else est.summary()
