@@ -203,6 +203,17 @@ def test_a_failing_coarsest_mesh_leaves_two_meshes_and_a_failing_next_one_is_nam
     with pytest.raises(InputError) as e:
         accuracy.estimate(case)
     assert e.value.field == "punch.0.zone" and "on the next coarser mesh" in e.value.message
+    failing = 2
+    real_refined = real
+
+    def solve_fine_fails(case, **kw):  # refine_to's next level fails: the results reached stand
+        if case.mesh.refine >= 1:
+            raise sc.SolverError("did not converge")
+        return real_refined(case, **kw)
+
+    monkeypatch.setattr(analysis, "solve", solve_fine_fails)
+    est = accuracy.refine_to(case, 1e-6)
+    assert est.levels[0]["mesh"]["refine"] == 0 and est.stopped.startswith("the solve on mesh.refine = 1 failed")
 
 
 # -- the command line -------------------------------------------------------------------------------------------

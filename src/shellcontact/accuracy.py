@@ -338,8 +338,8 @@ def refine_to(case, tolerance: float, *, max_levels: int = DEFAULT_MAX_LEVELS,
               max_memory: float | str | None = None, announce: Progress | None = None) -> Estimate:
     """Estimate on ``case``'s mesh (``estimate``), then refine uniformly (``mesh.refine + 1``) and
     re-estimate with the meshes already solved, until every headline estimate is at most ``tolerance``,
-    ``max_levels`` refinements were made, or the memory guard (``sizing.check_size``) refuses the next mesh.
-    Returns the finest mesh's results with ``stopped`` saying why short of the tolerance (None: met)."""
+    ``max_levels`` refinements were made, the memory guard (``sizing.check_size``) refuses the next mesh or its
+    solve fails. Returns the finest mesh's results with ``stopped`` saying why short of the tolerance (None: met)."""
     from .punches import place_punches
     from .sizing import check_size
 
@@ -359,7 +359,11 @@ def refine_to(case, tolerance: float, *, max_levels: int = DEFAULT_MAX_LEVELS,
         except InputError as exc:
             est.stopped = f"the memory guard stopped the refinement: {exc.message}"
             break
-        result, fine = _solve_level(finer, max_memory, est.levels, announce)
+        try:
+            result, fine = _solve_level(finer, max_memory, est.levels, announce)
+        except ShellContactError as exc:  # the results reached stand
+            est.stopped = f"the solve on mesh.refine = {finer.mesh.refine} failed: {exc}"
+            break
         est.levels.insert(0, est.levels.pop())
         est.summaries.insert(0, fine)
         est = Estimate(result, accuracy_table(est.summaries[:3]), est.levels, tolerance, None, est.summaries)
