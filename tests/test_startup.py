@@ -58,11 +58,12 @@ def test_overrides_does_not_import_case() -> None:
 
 
 def test_public_names_resolve_to_their_definitions() -> None:
-    from shellcontact import analysis, case, errors, geometry, studies
+    from shellcontact import accuracy, analysis, case, errors, geometry, studies
 
     where = {
         "Case": case, "case_from_dict": case, "load_case": case, "Result": analysis, "solve": analysis,
         "Shell": geometry, "convergence": studies, "study": studies, "sweep": studies,
+        "estimate": accuracy, "refine_to": accuracy,
         "InputError": errors, "ShellContactError": errors, "SolverError": errors,
     }
     assert set(shellcontact.__all__) == {*where, "__version__"}

@@ -17,6 +17,7 @@ from .errors import InputError, ShellContactError, SolverError
 from .lazy import lazy_attributes
 
 if TYPE_CHECKING:
+    from .accuracy import estimate, refine_to
     from .analysis import Result, solve
     from .case import Case, case_from_dict, load_case
     from .geometry import Shell
@@ -33,6 +34,8 @@ _LAZY = {
     "load_case": "case",
     "Shell": "geometry",
     "convergence": "studies",
+    "estimate": "accuracy",
+    "refine_to": "accuracy",
     "study": "studies",
     "sweep": "studies",
 }
@@ -46,7 +49,9 @@ __all__ = [
     "SolverError",
     "case_from_dict",
     "convergence",
+    "estimate",
     "load_case",
+    "refine_to",
     "solve",
     "study",
     "sweep",

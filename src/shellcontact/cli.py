@@ -144,21 +144,22 @@ def _check_profiles(args: argparse.Namespace, shell) -> None:
 def _print_summary(con: Console, s: dict) -> None:
     from .units import bracket, with_unit
 
-    system = s.get("unit_system", "SI")
+    system, acc = s.get("unit_system", "SI"), s.get("accuracy", {})
 
-    def q(value: float, kind: str, spec: str = ".6g") -> str:  # a figure with the unit of the case's system
-        return with_unit(format(value, spec), kind, system)
+    def q(value: float, kind: str, spec: str = ".6g", path: str = "") -> str:  # a figure with its unit (and
+        e = acc.get(path, {}).get("estimate")  # with --estimate its estimated relative error)
+        return with_unit(format(value, spec), kind, system) + (f" (±{100 * e:.2g} %)" if e is not None else "")
 
     con.print(f"dofs {s['dofs']}  elements {s['elements']}  energy {q(s['energy'], 'energy')}  "
-              f"max|w| {q(s['max_abs_w'], 'length')}")
-    for p in s.get("probes", []):
+              f"max|w| {q(s['max_abs_w'], 'length', path='max_abs_w')}")
+    for j, p in enumerate(s.get("probes", [])):
         con.print(f"probe x={q(p['x'], 'length', 'g')} phi={p['phi']:g} deg: "
-                  + "  ".join(f"{k}={q(p[k], 'length')}" for k in ("u", "v", "w")))
+                  + "  ".join(f"{k}={q(p[k], 'length', path=f'probes.{j}.{k}')}" for k in ("u", "v", "w")))
     contact = s.get("contact")
     if contact:
         for i, c in enumerate(contact if isinstance(contact, list) else [contact]):
             parts = [
-                f"{name} {q(c[k], kind)}"
+                f"{name} {q(c[k], kind, path=f'contact.{i}.{k}')}"
                 for k, name, kind in (("force_magnitude", "force", "force"),
                                       ("total_normal_force", "total normal force", "force"),
                                       ("peak_pressure", "peak pressure", "pressure"))
@@ -166,14 +167,14 @@ def _print_summary(con: Console, s: dict) -> None:
             ]
             zone = c.get("zone")
             if isinstance(zone, dict) and isinstance(zone.get("area"), (int, float)):
-                parts.append(f"zone area {q(zone['area'], 'area')}")
+                parts.append(f"zone area {q(zone['area'], 'area', path=f'contact.{i}.zone.area')}")
             con.print(f"punch {i}: " + "  ".join(parts))
     st = s.get("stresses")
     if st:
         name, worst = max(st.items(), key=lambda kv: kv[1]["von_mises_max"])
         util = f"  utilisation {worst['utilisation_max']:.3g}" if "utilisation_max" in worst else ""
-        con.print(f"max von Mises {q(worst['von_mises_max'], 'pressure')} ({name} surface, "
-                  f"x={q(worst['at']['x'], 'length', '.4g')} phi={worst['at']['phi']:.4g} deg){util}")
+        con.print(f"max von Mises {q(worst['von_mises_max'], 'pressure', path=f'stresses.{name}.von_mises_max')} "
+                  f"({name} surface, x={q(worst['at']['x'], 'length', '.4g')} phi={worst['at']['phi']:.4g} deg){util}")
     eq = s.get("equilibrium")
     if eq:
         terms = "  ".join(f"{k} {_vec(eq[k]['force'])}" for k in ("applied", "contact", "reactions") if k in eq)
@@ -195,6 +196,7 @@ def _closing(n_warnings: int) -> str:
 
 # -- commands ----------------------------------------------------------------------------------------------
 def cmd_run(args: argparse.Namespace, con: Console) -> int:
+    from .accuracy import describe, run_mode
     from .analysis import solve
     from .outputs import RUN_FILES, write_run_files
     from .transaction import replace_dir
@@ -207,13 +209,18 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
         worst = max((v for v in (residuals or {}).values() if isinstance(v, float)), default=None)
         con.status(f"solving: iteration {iteration}" + (f", largest residual {worst:.2e}" if worst else ""))
 
+    est = run_mode(case, args.estimate, args.accuracy, args.strict, args.max_levels)  # checked before solving
     with replace_dir(out, overwrite=args.force, owned=RUN_FILES, wait=args.wait) as stage:
         t0 = time.perf_counter()
         con.status("solving ...")
-        result = solve(case, progress=show if con.bar else None, max_memory=args.max_memory)
+        if est is None:
+            result = solve(case, progress=show if con.bar else None, max_memory=args.max_memory)
+        else:  # --estimate / --accuracy: the case's mesh and coarser (finer) ones; the finest mesh's result
+            est = est(case, max_memory=args.max_memory, announce=con.status)
+            result = est.result  # its warnings are logged (stderr) as the solve's are
         con.clear()
         log.info("solved in %.3f s", time.perf_counter() - t0)
-        summary = result.summary()
+        summary = result.summary() if est is None else est.summary()
         n_warnings = len(summary["warnings"])  # each already on stderr (analysis logs them as they arise)
         summary["case_file"] = str(args.case)
         if sets:
@@ -230,8 +237,10 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
     for name in written:
         log.info("wrote %s", out / name)
     _print_summary(con, summary)
+    if est is not None:
+        con.print("\n".join(describe(est)))
     con.print(f"wrote {out}/: {', '.join(written)}" + _closing(n_warnings))
-    return EXIT_OK
+    return EXIT_FAIL if est is not None and args.strict and not est.met else EXIT_OK
 
 
 def cmd_demo(args: argparse.Namespace, con: Console) -> int:
@@ -416,6 +425,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _case_args(r, "output directory (default: <case name>-out)")
     r.add_argument("--no-report", action="store_true", help="skip report.html")
+    a = r.add_argument_group("accuracy (docs/outputs.md#accuracy-of-the-headline-numbers)")
+    a.add_argument("--estimate", action="store_true", help="also solve on the two next coarser meshes (about "
+                   "1/4 + 1/16 of the cost) and estimate each headline's discretisation error")
+    a.add_argument("--accuracy", type=_finite, metavar="TOL", help="refine uniformly until every headline's "
+                   "estimated relative error is at most TOL (in [1e-6, 0.5], e.g. 1e-3)")
+    a.add_argument("--max-levels", type=int, default=3, metavar="N", help="--accuracy: at most N refinements "
+                   "beyond the case's mesh (default 3)")
+    a.add_argument("--strict", action="store_true", help="--accuracy: exit 1 when a tolerance is not met")
     r.add_argument("--profile-x", type=_finite, metavar="X", help="pressure profile along the mesh line nearest x = X")
     r.add_argument(
         "--profile-phi", type=_finite, metavar="DEG", help="pressure profile along the mesh line nearest phi = DEG"

@@ -291,6 +291,26 @@ def _headline(s: Mapping[str, Any]) -> str:
     return table(rows, ("quantity", "value", "unit", "where / note"), cls="headline")
 
 
+def _accuracy(s: Mapping[str, Any]) -> str:
+    """``run --estimate`` / ``--accuracy``: every headline beside its estimated relative discretisation error."""
+    acc, ref = s.get("accuracy"), s.get("refinement") or {}
+    if not acc:
+        return ""
+    units, tol, levels = s.get("units", {}), ref.get("tolerance"), ref.get("levels", [])
+    rows = [[path, e["value"], _Unit(units.get(f"accuracy.{path}.value", "–")),
+             "not estimated" if e["estimate"] is None else f"{100 * e['estimate']:.2g} %"
+             + (" (above 1 %)" if e["estimate"] > 0.01 else ""),
+             "1 (assumed)" if e["order"] is None else f"{e['order']:.2g}",
+             *([] if tol is None else ["met" if e.get("met") else "not met"])] for path, e in acc.items()]
+    meshes = ", ".join(f"{lv['dofs']} dofs" for lv in levels)
+    intro = (f"<p>From {len(levels)} meshes, finest first ({meshes}), each coarser one with twice the element size: "
+             "Richardson extrapolation with the observed order, or order 1 where none is observed "
+             "(docs/outputs.md)." + (f" Tolerance {tol:g}: {html.escape(ref.get('stopped') or 'met')}." if tol else "")
+             + "</p>")
+    head = ("summary path", "value", "unit", "estimated relative error", "order", *(() if tol is None else ("",)))
+    return intro + table(rows, head, cls="headline")
+
+
 # -- details ----------------------------------------------------------------------------------------------------
 def _stresses(s: Mapping[str, Any]) -> str:
     st = s.get("stresses") or {}
@@ -420,6 +440,7 @@ def render(
     sections = [
         ("The case", _describe_case(case, summary) if case is not None else ""),
         ("Results", _headline(summary)),
+        ("Accuracy", _accuracy(summary)),
         ("Warnings", _warnings(summary)),
         ("Figures", "\n".join(image(n, b) for n, b in (figures or {}).items())),
         ("Details", "<p>Every number of the run, by topic; the full summary.json at the end.</p>"),

@@ -79,11 +79,16 @@ SUMMARY_KINDS: tuple[tuple[str, str | None], ...] = (
     ("contact.area", "area"), ("contact.peak_pressure", "pressure"), ("contact.moment", "moment"),
     ("contact.force*", "force"), ("contact.total_normal_force", "force"),
     ("contact.punch_travel", "length"), ("contact.penetration_*", "length"),
+    # run --estimate / --accuracy (accuracy.py): relative estimates, orders, levels; a value has its quantity's unit
+    ("accuracy.*.estimate", None), ("accuracy.*.order", None), ("refinement.levels.seconds", "time"),
+    ("refinement.*", None),
 )
 
 
 def kind_of(path: str) -> str | None:
     """The kind of the summary key ``path`` (None: dimensionless); KeyError for a key nobody classified."""
+    if path.startswith("accuracy.") and path.endswith(".value"):  # accuracy.<headline path>.value
+        return kind_of(".".join(p for p in path[len("accuracy."):-len(".value")].split(".") if not p.isdigit()))
     for pattern, kind in SUMMARY_KINDS:
         if fnmatchcase(path, pattern):
             return kind
