@@ -402,9 +402,12 @@ def test_h_convergence_nested():
     assert ferr[-1] < 1e-3 and ferr[-1] < ferr[0]
 
 
-def test_nested_iteration_same_answer_fewer_iterations():
+def test_nested_iteration_same_answer_fewer_fine_level_solves():
     """solver.nested: solve on refine − 1 (recursively) and start from it: the same answer and the
-    same active set as a cold start (the paper's sphere panel, refine 2: 22 active vertices)."""
+    same active set as a cold start (the paper's sphere panel, refine 2: 22 active vertices), with fewer
+    solves with the fine factorisation. Measured: active set 199 → 117, dual 194 → 120 (0.59, 0.62 of a
+    cold start; asserted ≤ 0.8). Not fewer fine-level iterations: 14 → 21 and 23 → 45, the steps from the
+    prolongated set being cheaper (docs/solvers.md, nested iteration)."""
     counts = {}
     for method in EXACT:
         cold = solve(case_from_dict(sphere_dict(refine=2)), method=method)
@@ -420,9 +423,7 @@ def test_nested_iteration_same_answer_fewer_iterations():
             "coarse levels": nested.info["nested_iterations"],
         }
         assert len(nested.info["nested_iterations"]) == 2  # the coarse levels were solved first
-    # Measured, not asserted (speed lives in benchmarks/): on this graded panel the prolongated
-    # coarse active set saves the dual method fine-level solves, but not PDAS, whose first step
-    # from it over-shoots to the same large set as a cold start (Kirchhoff line forces at the edge).
+        assert n.timings["n_solves"] <= 0.8 * c.timings["n_solves"], counts[method]
     print("\nnested iteration (sphere panel, refine 2):", counts)
 
 
@@ -632,11 +633,12 @@ def test_case_file_reference_is_generated_from_the_schema():
 
 @pytest.mark.parametrize("method", METHODS)
 def test_progress_reports_every_solver_iteration(method):
-    """solve(..., progress=f) calls f once per contact-solver iteration (the CLI's progress display)."""
+    """solve(..., progress=f) calls f exactly once per contact-solver iteration, in order (the CLI's progress
+    display)."""
     seen: list[int] = []
     res = solve(case_from_dict(sphere_dict()), method=method, progress=lambda it, residuals: seen.append(it))
-    assert len(seen) >= res.contact.solution.iterations >= 1
-    assert seen == sorted(seen)
+    assert res.contact.solution.iterations >= 1
+    assert seen == list(range(1, res.contact.solution.iterations + 1))
 
 
 def test_extended_precision_option():
