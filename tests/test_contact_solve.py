@@ -125,7 +125,7 @@ def test_primal_and_dual_agree(key):
     assert rel(du.contact.Lambda, ap.contact.Lambda) <= 1e-8
     for r in (ap, du):
         kkt = r.summary()["kkt"]
-        assert kkt["duality_gap"] <= 1e-14  # measured 4.5e-16 (roller), 9.9e-16 / 3.9e-16 (sphere, AS / dual)
+        assert kkt["duality_gap"] <= 1e-14  # measured 4.5e-16 (roller), 1e-15 / 4e-16 to 7e-16 (sphere, AS / dual)
         assert kkt["penetration"] <= 1e-10 * contact(r)["punch_travel"]
         assert kkt["dual_feasibility"] == 0.0
     assert rel(contact(du)["force"], contact(ap)["force"]) <= 1e-8
