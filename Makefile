@@ -16,29 +16,15 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
 	touch $(STAMP)
 
-# CHOLMOD for the backend comparison (tests/test_linalg.py): scikit-sparse builds against the system's SuiteSparse
-# headers (Debian: libsuitesparse-dev, which .ci/run installs when it runs as root). Without the headers nothing is
-# installed (and the stamp is not made, so a later `make test` tries again); a failed build is not retried. Either
-# way the CHOLMOD tests are skipped, saying why.
-CHOLMOD_STAMP = $(VENV)/.cholmod
-$(CHOLMOD_STAMP): $(STAMP)
-	@if [ -f /usr/include/suitesparse/cholmod.h ]; then \
-	  $(BIN)/python -m pip install --quiet -e ".[cholmod]" \
-	    || echo "could not build scikit-sparse: the CHOLMOD backend tests will be skipped" >&2; \
-	  touch $(CHOLMOD_STAMP); \
-	else \
-	  echo "no SuiteSparse headers (Debian: apt-get install libsuitesparse-dev): the CHOLMOD backend tests will be skipped" >&2; \
-	fi
-
 demo: $(STAMP)
 	$(BIN)/shellcontact demo -o demo-out --force
 
-test: $(STAMP) $(CHOLMOD_STAMP)
+test: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
 	$(BIN)/python -m pytest -n 2 -q
 
 # the suite without pytest-xdist (one process), as a check that no test depends on the worker split
-test-serial: $(STAMP) $(CHOLMOD_STAMP)
+test-serial: $(STAMP)
 	$(BIN)/python -m pytest -q -p no:xdist
 
 # what lands: a fresh clone of the committed HEAD, with ../shared beside it, runs `make test` from scratch

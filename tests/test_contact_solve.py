@@ -405,9 +405,10 @@ def test_h_convergence_nested():
 def test_nested_iteration_same_answer_fewer_fine_level_solves():
     """solver.nested: solve on refine − 1 (recursively) and start from it: the same answer and the
     same active set as a cold start (the paper's sphere panel, refine 2: 22 active vertices), with fewer
-    solves with the fine factorisation. Measured: active set 199 → 117, dual 194 → 120 (0.59, 0.62 of a
-    cold start; asserted ≤ 0.8). Not fewer fine-level iterations: 14 → 21 and 23 → 45, the steps from the
-    prolongated set being cheaper (docs/solvers.md, nested iteration)."""
+    solves with the fine factorisation. Measured: active set 199 → 117, dual 194 → 120; with scikit-sparse
+    loaded in the process (its BLAS moves PARDISO's round-off) 199 → 164 and 194 → 122: the gain depends on
+    round-off, so only a gain is asserted. Not fewer fine-level iterations: 14 → 21 (23) and 23 → 45 (49)
+    (docs/solvers.md, nested iteration)."""
     counts = {}
     for method in EXACT:
         cold = solve(case_from_dict(sphere_dict(refine=2)), method=method)
@@ -423,7 +424,7 @@ def test_nested_iteration_same_answer_fewer_fine_level_solves():
             "coarse levels": nested.info["nested_iterations"],
         }
         assert len(nested.info["nested_iterations"]) == 2  # the coarse levels were solved first
-        assert n.timings["n_solves"] <= 0.8 * c.timings["n_solves"], counts[method]
+        assert n.timings["n_solves"] < c.timings["n_solves"], counts[method]
     print("\nnested iteration (sphere panel, refine 2):", counts)
 
 
