@@ -157,6 +157,10 @@ def test_pressurized_cylinder_matches_closed_form(examples_dir):
             mesh=replace(case.mesh, nphi=24),
         ),
     }
+    # relative errors of w(0), M11(+H), M11(−H), N11, u(H/2), at 5–8x those measured: panel 1.2e-8, 2.3e-6,
+    # 2.3e-6, 4.7e-7, 9.2e-6; full cylinder 7.9e-9, 8.8e-7, 8.8e-7, 2.7e-7, 1.2e-6
+    bounds = {"panel (example)": [1e-7, 1.5e-5, 1.5e-5, 3e-6, 5e-5],
+              "full cylinder": [5e-8, 5e-6, 5e-6, 2e-6, 1e-5]}
     for name, c in variants.items():
         sol = sc.solve(c).solution
         ph = 0.5 * (c.shell.alpha + c.shell.beta) if name != "full cylinder" else 0.3
@@ -172,5 +176,4 @@ def test_pressurized_cylinder_matches_closed_form(examples_dir):
             (d["u"][1] - ex.u(ex.H / 2)) / ex.u(ex.H / 2),
         ]
         print(f"{name:18s} {sol.space.ndofs:6d} " + "".join(f"{e:16.2e}" for e in errs))
-        for e in errs:
-            assert abs(e) < 1e-4, (name, errs)
+        assert np.all(np.abs(errs) < bounds[name]), (name, errs)

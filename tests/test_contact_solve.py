@@ -125,7 +125,7 @@ def test_primal_and_dual_agree(key):
     assert rel(du.contact.Lambda, ap.contact.Lambda) <= 1e-8
     for r in (ap, du):
         kkt = r.summary()["kkt"]
-        assert kkt["duality_gap"] <= 1e-10
+        assert kkt["duality_gap"] <= 1e-14  # measured 4.5e-16 (roller), 1e-15 / 4e-16 to 7e-16 (sphere, AS / dual)
         assert kkt["penetration"] <= 1e-10 * contact(r)["punch_travel"]
         assert kkt["dual_feasibility"] == 0.0
     assert rel(contact(du)["force"], contact(ap)["force"]) <= 1e-8
@@ -402,9 +402,13 @@ def test_h_convergence_nested():
     assert ferr[-1] < 1e-3 and ferr[-1] < ferr[0]
 
 
-def test_nested_iteration_same_answer_fewer_iterations():
+def test_nested_iteration_same_answer_fewer_fine_level_solves():
     """solver.nested: solve on refine − 1 (recursively) and start from it: the same answer and the
-    same active set as a cold start (the paper's sphere panel, refine 2: 22 active vertices)."""
+    same active set as a cold start (the paper's sphere panel, refine 2: 22 active vertices), with fewer
+    solves with the fine factorisation. Measured: active set 199 → 117, dual 194 → 120; with scikit-sparse
+    loaded in the process (its BLAS moves PARDISO's round-off) 199 → 164 and 194 → 122: the gain depends on
+    round-off, so only a gain is asserted. Not fewer fine-level iterations: 14 → 21 (23) and 23 → 45 (49)
+    (docs/solvers.md, nested iteration)."""
     counts = {}
     for method in EXACT:
         cold = solve(case_from_dict(sphere_dict(refine=2)), method=method)
@@ -420,9 +424,7 @@ def test_nested_iteration_same_answer_fewer_iterations():
             "coarse levels": nested.info["nested_iterations"],
         }
         assert len(nested.info["nested_iterations"]) == 2  # the coarse levels were solved first
-    # Measured, not asserted (speed lives in benchmarks/): on this graded panel the prolongated
-    # coarse active set saves the dual method fine-level solves, but not PDAS, whose first step
-    # from it over-shoots to the same large set as a cold start (Kirchhoff line forces at the edge).
+        assert n.timings["n_solves"] < c.timings["n_solves"], counts[method]
     print("\nnested iteration (sphere panel, refine 2):", counts)
 
 
@@ -486,7 +488,8 @@ def test_force_control_reproduces_indentation():
         assert c["mode"] == "force"
         assert c["punch_travel"] == pytest.approx(2e-3, rel=tol)
         assert rel(res.solution.U, ind.solution.U) <= tol
-        assert res.summary()["kkt"]["duality_gap"] <= (1e-10 if method != "penalty" else 1e-3)
+        # measured 2.6e-16 (exact methods), 5.8e-7 (penalty: O(ε))
+        assert res.summary()["kkt"]["duality_gap"] <= (1e-14 if method != "penalty" else 5e-6)
 
 
 # --------------------------------------------------------------------------------------------
@@ -632,11 +635,12 @@ def test_case_file_reference_is_generated_from_the_schema():
 
 @pytest.mark.parametrize("method", METHODS)
 def test_progress_reports_every_solver_iteration(method):
-    """solve(..., progress=f) calls f once per contact-solver iteration (the CLI's progress display)."""
+    """solve(..., progress=f) calls f exactly once per contact-solver iteration, in order (the CLI's progress
+    display)."""
     seen: list[int] = []
     res = solve(case_from_dict(sphere_dict()), method=method, progress=lambda it, residuals: seen.append(it))
-    assert len(seen) >= res.contact.solution.iterations >= 1
-    assert seen == sorted(seen)
+    assert res.contact.solution.iterations >= 1
+    assert seen == list(range(1, res.contact.solution.iterations + 1))
 
 
 def test_extended_precision_option():

@@ -95,7 +95,9 @@ def sleeve_reference():
 
 @pytest.mark.parametrize("method", ["active-set", "dual"])
 def test_finite_sleeve_line_force_at_its_rim_converges(sleeve_reference, method):
-    """The body x ∈ [−C, C] (the panel is x ∈ [0, 1], symmetric about x = 0) with an automatic zone."""
+    """The body x ∈ [−C, C] (the panel is x ∈ [0, 1], symmetric about x = 0) with an automatic zone. Measured
+    against the 1D oracle (both methods alike): rim line force −1.5e-3, −1.7e-4, +4.1e-5 at nx = 20, 40, 80
+    (asserted at 80: 2e-4); total force −1.7e-5, −3.9e-6, +4.3e-8 (asserted at 80: 3e-7)."""
     ref = sleeve_reference
     width = A * math.radians(ANGLE)  # circumferential length of the panel's mid-surface
     rows = []
@@ -123,8 +125,8 @@ def test_finite_sleeve_line_force_at_its_rim_converges(sleeve_reference, method)
     assert ref.ring_edge > 0.05 * ref.force_per_length
     errors = [abs(lf / ref.ring_edge - 1) for _, _, lf in rows]
     assert errors[2] < errors[1] < errors[0]
-    assert errors[2] < 0.05
-    assert abs(rows[-1][1] / ref.force_per_length - 1) < 1e-4
+    assert errors[2] < 2e-4
+    assert abs(rows[-1][1] / ref.force_per_length - 1) < 3e-7
 
 
 # ---------------------------------------------------------------------------------------------------------------

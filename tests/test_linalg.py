@@ -78,34 +78,65 @@ def test_solve_takes_a_vector_and_solve_many_a_block(shell_system):
     assert np.all(R <= 1e-12 * (f.norm_inf * np.abs(raw).max(axis=0) + np.abs(B).max(axis=0)))
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+#: every registered backend other than SuperLU, the reference: a missing one is a skip that says why
+OTHERS = [name for name in linalg.BACKENDS if name != "superlu"]
+
+
+def _require(backend: str) -> None:
+    if backend not in BACKENDS:
+        pytest.skip(f"backend {backend!r} is not installed here ({linalg.BACKENDS[backend].doc}): "
+                    "nothing to compare with SuperLU")
+
+
+def test_superlu_solves_as_dense_lapack(shell_system):
+    """SuperLU (the reference of the comparisons below) against a dense LAPACK solve of the same equilibrated
+    matrix: relative difference measured 3.9e-14 (asserted 2e-13); the stiffness's condition number makes a
+    difference up to cond(A) ε possible, so the residual is checked as well."""
+    _, A = shell_system
+    b = np.random.default_rng(0).standard_normal(A.shape[0])
+    x = linalg.factorize(A, "superlu").solve(b)
+    x_dense = np.linalg.solve(A.toarray(), b)
+    print(f"\nSuperLU vs dense LAPACK: {np.linalg.norm(x - x_dense) / np.linalg.norm(x_dense):.1e}")
+    assert np.linalg.norm(x - x_dense) <= 2e-13 * np.linalg.norm(x_dense)
+    assert np.linalg.norm(A @ x - b) <= 1e-12 * np.linalg.norm(b)
+
+
+@pytest.mark.parametrize("backend", OTHERS)
 def test_backends_give_the_same_solution(shell_system, backend):
+    """Each backend against SuperLU (different orderings and factorisations): measured 8.6e-16 to 8.8e-16
+    (PARDISO), 1.1e-15 (CHOLMOD), asserted 1e-14; each one's residual and backward error below 1e-9 and 1e-14."""
+    _require(backend)
     _, A = shell_system
     rng = np.random.default_rng(0)
     b = rng.standard_normal(A.shape[0])
     B = rng.standard_normal((A.shape[0], 3))
     ref = linalg.factorize(A, "superlu")
     f = linalg.factorize(A, backend)
-    assert f.backend == backend
+    assert f.backend == backend and ref.backend == "superlu"
     x, x_ref = f.solve(b), ref.solve(b)
-    assert np.linalg.norm(x - x_ref) <= 1e-10 * np.linalg.norm(x_ref)
+    print(f"\n{backend} vs SuperLU: {np.linalg.norm(x - x_ref) / np.linalg.norm(x_ref):.1e}")
+    assert np.linalg.norm(x - x_ref) <= 1e-14 * np.linalg.norm(x_ref)
     X = f.solve_many(B)
     assert X.shape == B.shape
-    assert np.linalg.norm(X - ref.solve_many(B)) <= 1e-10 * np.linalg.norm(X)
+    assert np.linalg.norm(X - ref.solve_many(B)) <= 1e-14 * np.linalg.norm(X)
     assert f.residual < 1e-9 and f.backward_error < 1e-14
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", ["superlu", *OTHERS])
 def test_refactor_reuses_the_analysis(shell_system, backend):
+    """New values on the same pattern, then a new pattern: the same answer as a dense LAPACK solve (these
+    diagonally dominant matrices are well conditioned: measured 8e-16 to 9e-16 for SuperLU and PARDISO,
+    asserted 1e-14)."""
+    _require(backend)
     _, A = shell_system
     b = np.random.default_rng(1).standard_normal(A.shape[0])
     f = linalg.factorize(A, backend)
     A2 = A.copy()
     A2.data *= 1.0 + 0.2 * np.cos(np.arange(A2.nnz))  # same pattern, new values …
     A2 = sp.csr_matrix(0.5 * (A2 + A2.T)) + sp.diags(np.abs(A).sum(axis=1).A1)  # … still SPD
-    fresh = linalg.factorize(A2, "superlu").solve(b)
+    fresh = np.linalg.solve(A2.toarray(), b)  # dense LAPACK: a reference independent of every backend
     x = f.refactor(A2).solve(b)
-    assert np.linalg.norm(x - fresh) <= 1e-10 * np.linalg.norm(fresh)
+    assert np.linalg.norm(x - fresh) <= 1e-14 * np.linalg.norm(fresh)
     assert np.linalg.norm(A2 @ x - b) <= 1e-9 * np.linalg.norm(b)
     # a different pattern: a new analysis where the backend needs one, same answer
     n = A.shape[0]
@@ -113,8 +144,8 @@ def test_refactor_reuses_the_analysis(shell_system, backend):
     E = sp.csr_matrix((1e-3 * np.sqrt(A.diagonal()[i] * A.diagonal()[i + 7]), (i, i + 7)), shape=A.shape)
     A3 = sp.csr_matrix(A2 + E + E.T)
     x3 = f.refactor(A3).solve(b)
-    fresh3 = linalg.factorize(A3, "superlu").solve(b)
-    assert np.linalg.norm(x3 - fresh3) <= 1e-10 * np.linalg.norm(fresh3)
+    fresh3 = np.linalg.solve(A3.toarray(), b)
+    assert np.linalg.norm(x3 - fresh3) <= 1e-14 * np.linalg.norm(fresh3)
 
 
 def test_iterative_refinement_reduces_the_residual(shell_system):

@@ -3,7 +3,7 @@
 * Scordelis–Lo roof (MacNeal & Harder 1985): vertical displacement at mid-length of the free
   edge, converged Kirchhoff–Love value 0.3006, within 0.5 %.
 * Pinched cylinder with rigid diaphragms (Flügge; MacNeal & Harder): radial displacement
-  under the unit load 1.8248e-5, within 2 %, on a one-eighth model with symmetry supports and
+  under the unit load 1.8248e-5, within 0.8 % (16 × 16), on a one-eighth model with symmetry supports and
   on full periodic cylinders; all agree.
 * Loads are work-consistent (MODEL.md §3): the analytic total of every applied load equals the
   resultant of the support reactions, R · I_h(e_k), up to a discretisation error that
@@ -99,8 +99,9 @@ def test_pinched_cylinder_eighth_model_convergence(examples_dir):
         print(
             f"{n:3d}x{n:<3d} {res.solution.space.ndofs:7d} {w:16.6e} {errs[-1]:12.2e} {time.perf_counter() - t0:8.2f}"
         )
-    assert abs(errs[2]) < 0.02  # the example's mesh
-    assert abs(errs[3]) < 0.005
+    # measured −3.47e-2, −7.35e-3, −1.55e-3 (the example's 16 × 16), +7.2e-4 (24 × 24)
+    assert abs(errs[2]) < 8e-3  # the example's mesh
+    assert abs(errs[3]) < 5e-3
     # the reactions balance the applied P/4 (work-consistent point load)
     R = sc.solve(case).solution.reaction_resultant()
     assert np.allclose(R, [0.0, 0.25, 0.0], atol=1e-4 * 0.25)
@@ -160,10 +161,12 @@ def test_pinched_cylinder_full_and_eighth_agree(examples_dir):
         f"  full, full length     {space.ndofs:6d} dofs  w = {wl[0]:.8e}, {wl[1]:.8e}  {tl:.2f} s"
         f"  (pin reaction {pin_reaction:.1e})"
     )
+    agree = max(abs(w - w8) for w in (*wf[:2], *wl)) / abs(w8)
+    print(f"  largest difference to the 1/8 model: {agree:.1e} relative")
     for w in (w8, *wf[:2], *wl):
-        assert abs((-w - PINCHED) / PINCHED) < 0.02
-        assert abs(w - w8) < 1e-8 * abs(w8)
-    assert abs(pin_reaction) < 1e-10
+        assert abs((-w - PINCHED) / PINCHED) < 8e-3  # measured −1.55e-3
+        assert abs(w - w8) < 5e-11 * abs(w8)  # measured 6.0e-12
+    assert abs(pin_reaction) < 5e-12  # measured 7.7e-13 (the load is 1)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -39,7 +39,9 @@ def _cylinder(nx: int) -> tuple[sc.Result, ClampedPressurizedCylinder]:
 
 
 def test_hoop_and_clamped_edge_stresses_of_the_pressurised_cylinder():
-    """σ22 at mid-length and σ11 on both surfaces at the clamped end converge to the closed form."""
+    """σ22 at mid-length and σ11 on both surfaces at the clamped end converge to the closed form. Measured
+    relative errors at nx = 20, 40, 80: hoop 3.7e-7, 5.0e-8, 8.1e-9; clamped edge 3.0e-3, 7.5e-4, 1.9e-4
+    (asserted at nx = 80: 4e-8 and 1e-3)."""
     errors = []
     for nx in (20, 40, 80):
         r, ex = _cylinder(nx)
@@ -62,7 +64,7 @@ def test_hoop_and_clamped_edge_stresses_of_the_pressurised_cylinder():
     e = np.array(errors)
     # the errors are discretisation errors: they fall by at least 2 per halving of h (P2/Argyris: faster)
     assert np.all(e[1:] <= 0.5 * e[:-1] + 1e-12)
-    assert e[-1, 0] < 1e-4 and e[-1, 1] < 1e-2
+    assert e[-1, 0] < 4e-8 and e[-1, 1] < 1e-3
 
 
 def _polynomial_field(a: float):
