@@ -215,11 +215,11 @@ def _split(BR: np.ndarray, motions: np.ndarray, tol: float, relative: bool = Tru
 
 def first_contact_rows(op: ContactOperator, radius: float) -> np.ndarray:
     """The rows where each punch first touches the undeformed shell: its deepest rows, G ≤ min G + 1e-8 a
-    (touching, overlapping by a prescribed indentation, or nearest when it starts apart). A motion
-    restrained only at rows farther away (the tilted normals beside a line contact, or the rest of the band
-    an indented punch overlaps) is not held: the linearised gaps there would allow a small amount of it
-    either way, and the solution would not be unique (the rotation of a ring about its axis between
-    frictionless plates)."""
+    (touching, overlapping by a prescribed indentation, or nearest when it starts apart). A motion seen only
+    at rows farther away (the tilted normals beside a line contact, or the rest of the band an indented
+    punch overlaps) is not held: the linearised gaps there allow a small amount of it either way (the
+    rotation of a ring about its axis between frictionless plates). It is balanced, not restrained: no load
+    may excite it (``analyse``)."""
     rows = []
     for k in range(len(op.punches)):
         r = op.rows(k)
@@ -246,6 +246,10 @@ def check_held(floating: Floating, op: ContactOperator) -> None:
     if res.status != 0 or -res.fun <= 1e-9 * np.sqrt(D.shape[1]):
         return
     y = np.where(np.abs(res.x) > 1e-9, res.x, 0.0)
+    plain = y.copy()  # the balanced motions carry no load: named only if the escape needs them
+    plain[kf + len(floating.restrained):] = 0.0
+    if np.all(D @ plain >= -1e-9 * np.abs(D).max()):
+        y = plain
     parts = []
     if np.any(y[kf:]):
         parts.append(describe_motion(floating.columns.T @ y[kf:], floating.radius))

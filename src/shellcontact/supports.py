@@ -218,14 +218,17 @@ def free_motions(space: ShellSpace, fixed: np.ndarray, tol: float = 1e-8,
 
 
 def _echelon(N: np.ndarray) -> np.ndarray:
-    """Reduced row echelon form of the rows of N (a basis of the same space), tiny entries zeroed."""
+    """Reduced row echelon form of the rows of N (a basis of the same space), tiny entries zeroed. A pivot
+    below 1e-6 of the largest entry is round-off (a roller's normal across its axis, 1e-9), not a component:
+    dividing by it would give a basis of 1e15-sized combinations."""
     N = N.copy()
+    tiny = 1e-6 * max(float(np.abs(N).max()) if N.size else 0.0, 1e-300)
     row = 0
     for col in range(N.shape[1]):
         if row == N.shape[0]:
             break
         piv = row + int(np.argmax(np.abs(N[row:, col])))
-        if abs(N[piv, col]) < 1e-10:
+        if abs(N[piv, col]) < tiny:
             continue
         N[[row, piv]] = N[[piv, row]]
         N[row] /= N[row, col]
