@@ -41,7 +41,7 @@ import numpy as np
 from .contact import ContactOperator
 from .errors import InputError
 from .spaces import ShellSpace
-from .supports import Reduction, _echelon, describe_motion, remedy, rigid_modes
+from .supports import Reduction, _echelon, describe_motion, remedy, right_singular, rigid_modes
 
 #: a free motion carries no load when |Rᵀ F| is below this fraction of its gross size Σ |f_d r_d| (round-off,
 #: or on an unsymmetric mesh the interpolation error of the motion, which is not exactly rigid in V_h)
@@ -135,7 +135,7 @@ def _toward(Db: np.ndarray, target: np.ndarray, carrying: np.ndarray, gaps: np.n
     seen = size > SEEN_TOL * max(float(size.max()) if size.size else 0.0, 1e-300)  # not round-off (cos 90°)
     held = Db[carrying & seen]
     if held.size:
-        _, sv, vt = np.linalg.svd(held, full_matrices=True)
+        sv, vt = right_singular(held)
         rank = int(np.sum(sv > 1e-10 * max(float(sv[0]), 1e-300)))
         basis = vt[rank:]
         y = basis.T @ (basis @ y)
@@ -206,7 +206,7 @@ def _split(BR: np.ndarray, motions: np.ndarray, tol: float, relative: bool = Tru
     k = len(motions)
     if BR.shape[0] == 0 or k == 0:
         return np.zeros((0, 6)), motions
-    _, sv, vt = np.linalg.svd(BR, full_matrices=True)
+    sv, vt = right_singular(BR)
     rank = int(np.sum(sv > tol * (max(float(sv[0]), 1.0) if relative else 1.0)))
     seen = _echelon(vt[:rank] @ motions) if rank else np.zeros((0, 6))
     unseen = _echelon(vt[rank:] @ motions) if rank < k else np.zeros((0, 6))

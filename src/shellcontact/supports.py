@@ -212,9 +212,16 @@ def free_motions(space: ShellSpace, fixed: np.ndarray, tol: float = 1e-8,
     R = R[fixed] / np.linalg.norm(R, axis=0)
     if R.shape[0] == 0:
         return np.eye(6)
-    _, sv, vt = np.linalg.svd(R, full_matrices=True)
+    sv, vt = right_singular(R)
     rank = int(np.sum((sv >= tol * max(sv[0], 1e-300)) & (sv >= tol)))
     return _echelon(vt[rank:])
+
+
+def right_singular(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The singular values and all k right singular vectors (k × k) of M (rows × k), without the rows × rows
+    left factor that ``full_matrices=True`` would build (16 350 contact rows: 2 GB and most of a minute)."""
+    _, sv, vt = np.linalg.svd(M, full_matrices=M.shape[0] < M.shape[1])
+    return sv, vt
 
 
 def _echelon(N: np.ndarray) -> np.ndarray:
