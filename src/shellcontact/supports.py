@@ -255,12 +255,11 @@ def gauge_dofs(space: ShellSpace, motions: np.ndarray, excluded: np.ndarray,
     translation along and the rotation about x, first): among the candidates where it moves at least half
     as much as where it moves most and that keep the chosen rows of the motions well conditioned (a smallest
     singular value at least half the best one), the one where it moves most (then the best conditioned, then
-    the first in mesh order). Two dofs a row apart would leave the
-    reduced stiffness nearly singular (the ring's rotation about x and translation along z told apart by
-    v at φ = 0 and 0.94°: cos φ − 1 ≈ 1e-4 there). On a ring between plates the choice is v at φ = 0
-    (rotation about x), 90° or 270° (translation along y) and 180° (translation along z) when those are
-    vertices. The choice splits the displacement into elastic and rigid parts only: the contact does not
-    depend on it (floating.py)."""
+    the first in mesh order). Two dofs a row apart would leave the reduced stiffness nearly singular (the
+    ring's rotation about x and translation along z told apart by v at φ = 0 and 0.94°: cos φ − 1 ≈ 1e-4
+    there). On a ring between plates the choice is v at φ = 0 (rotation about x), 90° or 270° (translation
+    along y) and the vertex nearest 180° (translation along z). The choice splits the displacement into
+    elastic and rigid parts only: the contact does not depend on it (floating.py)."""
     if motions.size == 0:
         return np.zeros(0, dtype=int)
     v = np.arange(space.mesh.nvertices)
