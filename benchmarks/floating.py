@@ -4,13 +4,14 @@
     python benchmarks/floating.py --quick     # about 13k dofs
 
 The ring-stiffness example (examples/ring_stiffness.toml: a pipe between two plates, force control)
-solved twice on the same mesh with the same punches: **floating** as in the example (only the
-plates hold the pipe: one restrained rigid motion, the translation along z, is an extra unknown with
-its equilibrium row, two more are gauged) and **supported** with clamped ends (no free motion), both
-with the plates' zones set to x in [-0.14, 0.14] so that they have the same constraint rows. Per
-case and method: the wall time of each stage of ``analysis.solve`` and the iterations. Both cases run
-in this one process, interleaved (floating, supported, floating, ...) ``--repeat`` times (default 2), and
-each keeps its fastest run: single runs on this VM move by 10-30 % with the machine's state.
+solved twice on the same mesh with the same punches: **floating** as in the example (only the plates
+hold the pipe: the restrained translation along z and the balanced rotation about x are extra unknowns
+with their equilibrium rows, the translation along y is gauged) and **supported** with clamped ends (no
+free motion), both with the plates' zones set to x in [-0.14, 0.14] so that they have the same
+constraint rows. Per case and method: the wall time of each stage of ``analysis.solve`` and the
+iterations. Both cases run in this one process, interleaved (floating, supported, floating, ...)
+``--repeat`` times (default 2), and each keeps its fastest run: single runs on this VM move by 10-30 %
+with the machine's state.
 """
 
 from __future__ import annotations

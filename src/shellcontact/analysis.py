@@ -635,21 +635,25 @@ def contact_result(case: Case, d: Discretization, opts: SolverOptions, timer: Ti
     with timer.stage("postprocess"):  # the gaps everywhere, penetration checks outside the rows
         U = red.expand(cs.U)
         rigid = None
-        if d.floating is not None:  # U = elastic part + rigid part; the gauge removes the unrestrained motions
+        Lam, active = np.asarray(cs.Lambda, float), np.asarray(cs.active, bool)
+        if d.floating is not None:  # U = elastic part + rigid part, without the balanced and gauged motions
             fl = d.floating
-            coefficients = fl.restrained.T @ (alpha if alpha is not None else np.zeros(0))
-            coefficients = coefficients - fl.gauge(space, U + fl.modes @ coefficients)
+            coefficients = fl.columns.T @ (alpha if alpha is not None else np.zeros(0))
+            kappa = penalty_ratio(case, info["penalty"]) if "penalty" in info else None  # forces to κ + ε/κ
+            accuracy = opts.tolerance if kappa is None else 10.0 * (kappa + float(np.finfo(float).eps) / kappa)
+            change, opened = fl.settle(space, U + fl.modes @ coefficients, Lam,
+                                       op.gap(U + fl.modes @ coefficients, delta), accuracy)
+            coefficients, active = coefficients + change, active & ~opened
             rigid = fl.modes @ coefficients
             U = U + rigid
-            info["rigid_motion"] = fl.summary(coefficients)
-        Lam = np.asarray(cs.Lambda, float)
+            info["rigid_motion"] = fl.summary(fl.free.T @ fl.fit(space, U))
 
         def derive() -> tuple[list, list, list]:
             zone = contact_zone(space, punches, U, delta)
             rim, lines = rim_line_force(space, punches, op, Lam, U, delta, zone)
             return zone, rim, lines
 
-        contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=np.asarray(cs.active, bool),
+        contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=active,
                                 gap=op.gap(U, delta), delta=delta,
                                 outside=penetration_outside(space, punches, U, delta),
                                 between=_penetration_between(space, punches, opts.contact_points, U, delta,

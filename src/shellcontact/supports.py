@@ -212,20 +212,30 @@ def free_motions(space: ShellSpace, fixed: np.ndarray, tol: float = 1e-8,
     R = R[fixed] / np.linalg.norm(R, axis=0)
     if R.shape[0] == 0:
         return np.eye(6)
-    _, sv, vt = np.linalg.svd(R, full_matrices=True)
+    sv, vt = right_singular(R)
     rank = int(np.sum((sv >= tol * max(sv[0], 1e-300)) & (sv >= tol)))
     return _echelon(vt[rank:])
 
 
+def right_singular(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The singular values and all k right singular vectors (k × k) of M (rows × k), without the rows × rows
+    left factor that ``full_matrices=True`` would build (16 350 contact rows: 2 GB and most of a minute)."""
+    _, sv, vt = np.linalg.svd(M, full_matrices=M.shape[0] < M.shape[1])
+    return sv, vt
+
+
 def _echelon(N: np.ndarray) -> np.ndarray:
-    """Reduced row echelon form of the rows of N (a basis of the same space), tiny entries zeroed."""
+    """Reduced row echelon form of the rows of N (a basis of the same space), tiny entries zeroed. A pivot
+    below 1e-6 of the largest entry is round-off (a roller's normal across its axis, 1e-9), not a component:
+    dividing by it would give a basis of 1e15-sized combinations."""
     N = N.copy()
+    tiny = 1e-6 * max(float(np.abs(N).max()) if N.size else 0.0, 1e-300)
     row = 0
     for col in range(N.shape[1]):
         if row == N.shape[0]:
             break
         piv = row + int(np.argmax(np.abs(N[row:, col])))
-        if abs(N[piv, col]) < 1e-10:
+        if abs(N[piv, col]) < tiny:
             continue
         N[[row, piv]] = N[[piv, row]]
         N[row] /= N[row, col]
@@ -242,11 +252,14 @@ def gauge_dofs(space: ShellSpace, motions: np.ndarray, excluded: np.ndarray,
     """One dof per free motion, fixed to zero in the elastic part so that the reduced stiffness is regular
     (a few fixed dofs remove the kernel, as for FETI's floating subdomains). Only tangential dofs (u, v at
     the vertices) are candidates, never w. For each motion in turn (those the elements represent exactly, the
-    translation along and the rotation about x, first): among the candidates
-    where it moves most, the one that keeps the chosen rows of the motions best conditioned (the first in
-    mesh order on a tie; the next smaller movement if none keeps them independent). On a ring between
-    plates that is v at φ = 0 (rotation about x), 90° (translation along y) and 180° (translation along
-    z): points on planes of symmetry, where a symmetric solution satisfies the gauge by itself."""
+    translation along and the rotation about x, first): among the candidates where it moves at least half
+    as much as where it moves most and that keep the chosen rows of the motions well conditioned (a smallest
+    singular value at least half the best one), the one where it moves most (then the best conditioned, then
+    the first in mesh order). Two dofs a row apart would leave the reduced stiffness nearly singular (the
+    ring's rotation about x and translation along z told apart by v at φ = 0 and 0.94°: cos φ − 1 ≈ 1e-4
+    there). On a ring between plates the choice is v at φ = 0 (rotation about x), 90° or 270° (translation
+    along y) and the vertex nearest 180° (translation along z). The choice splits the displacement into
+    elastic and rigid parts only: the contact does not depend on it (floating.py)."""
     if motions.size == 0:
         return np.zeros(0, dtype=int)
     v = np.arange(space.mesh.nvertices)
@@ -258,17 +271,17 @@ def gauge_dofs(space: ShellSpace, motions: np.ndarray, excluded: np.ndarray,
     scale = np.abs(R).max()
     chosen: list[int] = []
     for j in range(R.shape[1]):
-        size = np.round(np.abs(R[:, j]) / scale, 10)
-        for level in np.unique(size[size > 0.0])[::-1]:  # the largest movement first
-            group = np.flatnonzero(size == level)
-            rows = np.concatenate([np.broadcast_to(R[chosen, : j + 1], (group.size, len(chosen), j + 1)),
-                                   R[group, None, : j + 1]], axis=1)
-            sv = np.linalg.svd(rows, compute_uv=False)[:, -1]  # the best conditioned choice within the tie
-            if sv.max() > 1e-6 * scale:
-                chosen.append(int(group[np.argmax(sv)]))
-                break
-        else:
+        size = np.abs(R[:, j])
+        group = np.flatnonzero(size >= 0.5 * size.max()) if size.max() > 0.0 else np.zeros(0, dtype=int)
+        rows = np.concatenate([np.broadcast_to(R[chosen, : j + 1], (group.size, len(chosen), j + 1)),
+                               R[group, None, : j + 1]], axis=1)
+        sv = np.round(np.linalg.svd(rows, compute_uv=False)[:, -1] / scale, 10) if group.size else np.zeros(0)
+        if not sv.size or sv.max() <= 1e-6:
             raise InputError("supports", "no tangential dof can carry the gauge of the free rigid motions")
+        # well conditioned (at least half the best), then where the motion moves most, then the best conditioned
+        good = np.flatnonzero(sv >= 0.5 * sv.max())
+        order = np.lexsort((good, -sv[good], -np.round(size[group[good]] / scale, 10)))
+        chosen.append(int(group[good[order[0]]]))
     return np.sort(cand[chosen])
 
 
