@@ -41,7 +41,7 @@ def test_units_on_every_axis_and_colour_bar(panel) -> None:
             labels = [ax.get_xlabel(), ax.get_ylabel()] + ([ax.get_zlabel()] if hasattr(ax, "get_zlabel") else [])
             for text in filter(None, labels):
                 assert "[" in text and text.endswith("]"), (name, text)
-                assert text.endswith(("[mm]", "[MPa]", "[deg]")), (name, text)
+                assert text.endswith(("[mm]", "[MPa]", "[deg]", "[N/mm]")), (name, text)
     # the system's labels, not SI ones, and the titles' figures too
     fig = plots.plot_von_mises(panel)
     assert "MPa" in fig.axes[0].get_title() and "mm" in fig.axes[0].get_title()

@@ -208,7 +208,7 @@ def plot_pressure_profiles(
                 arc, q = np.append(arc, arc[-1] + np.linalg.norm(pts[0] - pts[-1])), np.append(q, q[0])
             line = ax.plot(arc, q, "-", label=f"punch {k}: {_rim_headline(result, rim)}")[0]
             ax.axhline(rim["mean_line_force"], color=line.get_color(), ls="--", lw=0.8)
-        ax.set_xlabel(f"along the rim{_unit(result, 'length')}")
+        ax.set_xlabel(f"along the rim or line{_unit(result, 'length')}")
         ax.set_ylabel(f"line force{_unit(result, 'force/length')}")
         ax.set_ylim(0.0, 1.15 * max(max(s["line_force"] for s in r["samples"]) for _, r in rims))
         ax.set_title("line force along the rim or line (dashed: its mean)", fontsize=10)

@@ -365,7 +365,7 @@ def _contact(s: Mapping[str, Any]) -> str:
     for e in entries:
         for k, v in e.items():
             sub = [f"{k}.{j}" for j in v] if isinstance(v, Mapping) else [k]
-            keys += [x for x in sub if x not in keys and x != "rim.samples"]  # the samples: summary.json
+            keys += [x for x in sub if x not in keys and x not in ("rim.samples", "rim.per_line")]  # summary.json
 
     def value(e: Mapping[str, Any], key: str) -> Any:
         head, _, tail = key.partition(".")

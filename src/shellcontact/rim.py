@@ -18,13 +18,16 @@ over regions of fixed physical size do, and these are what this module reports (
    ``length`` is the rim's length, ``mean_line_force`` = force / length; the line force along the rim
    (``samples``, ``peak_line_force``) is the band's forces smoothed with a hat kernel two element lengths wide
    along the line (the vertex and midpoint forces of a uniform load average out), per unit length of the rim.
+   Outline segments along the shell's own edges (a symmetry plane, the shell's end) carry no rim: points nearest
+   them are interior and they add no length; two stretches of the outline running opposite ways that the
+   offset puts onto one line (the sides of a sliver of zone along a rim) count once in the length.
 3. The interior: ``interior_force`` = total normal force − rim force over ``interior_area`` (the zone's area
    inside the rim) gives ``mean_interior_pressure``.
-4. A line contact (``kind`` = "line": a plate on a pipe): the outline is a thin strip round the line, at least
-   eight times longer than wide, with the force on its middle line. Then the whole force is the line load:
-   ``length`` is the strip's long side (of the rectangle with the strip's perimeter and enclosed area),
-   ``mean_line_force`` = force / length, and the samples run along the line's direction (the forces' principal
-   axis). Otherwise ``kind`` = "area".
+4. A line contact (per outline line; ``kind`` = "line" when every carrying line is one: a plate on a pipe): the
+   outline is a thin strip round the line, at least eight times longer than wide, with the force on its middle
+   line. Then its whole force is a line load: its length is the strip's long side (of the rectangle with the
+   strip's perimeter and enclosed area), and the samples run along the line's direction (the forces' principal
+   axis). ``per_line`` gives each line's kind, length, force and mean line force.
 Lengths are measured on the middle surface (x, s = aφ).
 """
 
@@ -146,7 +149,20 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     start = np.concatenate([np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ln, axis=0), axis=1))[:-1]])
                             for ln in lines])  # arc length at each segment's start, along its line
     line_len = np.array([float(np.linalg.norm(np.diff(ln, axis=0), axis=1).sum()) for ln in lines])
+    # outline segments along the shell's own edges (x_min, x_max; φ edges of a panel) close the outline where the
+    # contact continues beyond the model (a symmetry plane) or the shell ends: no rim there
+    sh = space.mesh.shell
+    tol = 1e-6 * max(sh.length, sh.s_max - sh.s_min)
+    mid = 0.5 * (seg0 + seg1)
+    closure = (np.abs(mid[:, 0] - sh.x_min) <= tol) | (np.abs(mid[:, 0] - sh.x_max) <= tol)
+    if not sh.full:
+        closure |= (np.abs(mid[:, 1] - sh.s_min) <= tol) | (np.abs(mid[:, 1] - sh.s_max) <= tol)
     j, t, depth = _nearest_segment(pts, seg0, seg1)
+    if closure.any() and not closure.all():  # on a tie (a point on a corner) the segment that can carry a rim
+        keep = np.flatnonzero(~closure)
+        j2, t2, d2 = _nearest_segment(pts, seg0[keep], seg1[keep])
+        better = closure[j] & (d2 <= depth + tol)
+        j[better], t[better], depth[better] = keep[j2[better]], t2[better], d2[better]
     # the line's normal at each point's nearest point: the segment's, or at a vertex the mean of its two segments'
     # (a point nearest a corner has two nearest segments; this makes the choice not matter)
     v_n = [_vertex_normals(ln, bool(np.allclose(ln[0], ln[-1]))) for ln in lines]
@@ -158,15 +174,21 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     tangent = np.stack([normal[:, 1], -normal[:, 0]], axis=1)
     across = _width_across(space, pts, normal)
     along = _width_across(space, pts, tangent)
-    perimeter = float(line_len.sum())
-    enclosed = _enclosed_area(lines)
-    thickness = 2.0 * (enclosed if enclosed is not None else zone_area) / perimeter if perimeter > 0 else 0.0
-    mean_depth = float(np.sum(f * depth) / max(f.sum(), 1e-300))
-    # a line contact: a strip at least eight times longer than wide whose force sits on its middle line (not outside
-    # it, as where the tolerance is below the gap's scatter between constraint points)
-    if thickness > 0 and LINE_CONTACT <= mean_depth / (0.5 * thickness) <= 1.0 / LINE_CONTACT \
-            and perimeter >= 16.0 * thickness:
-        return _line_contact(space, pts, f, zone_area, perimeter, total)
+    # a line contact: an outline that is a strip at least eight times longer than wide whose force sits on its
+    # middle line (not outside it, as where the tolerance is below the gap's scatter between constraint points)
+    line_parts: list[tuple[dict, list[np.ndarray]]] = []
+    is_line = np.zeros(len(lines), bool)
+    for i, ln in enumerate(lines):
+        mine = np.flatnonzero(seg_line[j] == i)
+        enclosed = _enclosed_area([ln])
+        if mine.size == 0 or not enclosed:
+            continue
+        thickness = 2.0 * enclosed / line_len[i]
+        mean_depth = float(np.sum(f[mine] * depth[mine]) / max(f[mine].sum(), 1e-300))
+        if LINE_CONTACT <= mean_depth / (0.5 * thickness) <= 1.0 / LINE_CONTACT and line_len[i] >= 16.0 * thickness:
+            is_line[i] = True
+            line_parts.append(_line_contact(space, pts[mine], f[mine], enclosed, float(line_len[i]),
+                                            float(f[mine].sum())))
     where = start[j] + t * seg_len[j]  # arc length along the nearest level line
     # signed offset of each point from its line (the sign of the line's left normal): the rim's offset below is a
     # mean of these, so it does not depend on which way round or from where a line was traced (mirror images
@@ -177,8 +199,8 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     geometry = []
     for i, ln in enumerate(lines):
         closed = bool(np.allclose(ln[0], ln[-1]))
-        mine = np.flatnonzero(seg_line[j] == i)
-        if mine.size == 0:
+        mine = np.flatnonzero((seg_line[j] == i) & ~closure[j])
+        if mine.size == 0 or is_line[i]:
             geometry.append((ln, None, closed))
             continue
         period = line_len[i] if closed else None
@@ -192,8 +214,10 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         geometry.append((ln, mine, closed))
     # the band also holds the interior pressure over its width, O(h): it vanishes under refinement
     rim_force = float(f[band].sum())
-    rim_lines, samples, length, inner_area, peak = [], [], 0.0, 0.0, 0.0
+    rim_lines, samples, length, inner_area, peak, per_line, rim_keep, rim_outlines = [], [], 0.0, 0.0, 0.0, [], [], []
     for i, (ln, mine, closed) in enumerate(geometry):
+        if mine is None:
+            continue
         arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ln, axis=0), axis=1))])
         period = line_len[i] if closed else None
         sel = mine[band[mine]] if mine is not None else np.zeros(0, int)
@@ -211,9 +235,12 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         rim = ln + offset[:, None] * n_v
         if closed:
             rim[-1] = rim[0]
-        rim_arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(rim, axis=0), axis=1))])
+        rim_seg = np.linalg.norm(np.diff(rim, axis=0), axis=1)
+        rim_arc = np.concatenate([[0.0], np.cumsum(rim_seg)])
         rim_lines.append(rim)
-        length += float(rim_arc[-1])
+        rim_keep.append(~closure[seg_line == i])  # the closing segments carry no line force
+        rim_outlines.append(ln)
+        per_line.append({"kind": "area", "length": 0.0, "force": float(f[sel].sum()), "mean_line_force": 0.0})
         inner_area += float(np.sum(0.5 * (np.abs(offset[1:]) + np.abs(offset[:-1])) * np.diff(arc)))
         # the line force: the band's forces smoothed along the line with a hat two element lengths wide (the vertex
         # and midpoint forces of a uniform load average out), per unit length of the rim (d rim_arc / d arc)
@@ -229,14 +256,35 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         on_rim = _points_at(rim, np.interp(centres, arc, rim_arc))
         samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": float(v)}
                     for c, v in zip(on_rim, density)]
-    interior = total - rim_force
+    # two stretches of the outline that the offset moves onto one line (the sides of a sliver of the zone along a
+    # rim) are one rim: count its length once
+    for entry, own in zip(per_line, _union_lengths(rim_lines, rim_outlines, rim_keep, 0.1 * float(np.median(across)))):
+        entry["length"] = own
+        entry["mean_line_force"] = entry["force"] / own if own > 0 else 0.0
+        length += own
+    for part, polyline in line_parts:  # line contacts: their whole force is a line load
+        rim_force += part["force"]
+        length += part["length"]
+        inner_area += part["area"]
+        peak = max(peak, part["peak_line_force"])
+        samples += part["samples"]
+        rim_lines += polyline
+        per_line.append({"kind": "line", "length": part["length"], "force": part["force"],
+                         "mean_line_force": part["mean_line_force"]})
+    interior = max(total - rim_force, 0.0)
     interior_area = max(zone_area - inner_area, 0.0)
-    out = {"kind": "area", "length": length, "force": rim_force, "interior_force": interior,
+    out = {"kind": "line" if line_parts and not _geometry_has_force(geometry) else "area", "length": length,
+           "force": rim_force, "interior_force": interior,
            "peak_line_force": peak, "mean_line_force": rim_force / length if length > 0 else 0.0,
-           "lines": len(rim_lines), "interior_area": interior_area,
+           "lines": len(per_line), "interior_area": interior_area,
            "mean_interior_pressure": interior / interior_area if interior_area > 0 else 0.0,
-           "samples": samples}
+           "per_line": per_line, "samples": samples}
     return out, rim_lines
+
+
+def _geometry_has_force(geometry: list) -> bool:
+    """Whether an outline that is not a line contact holds carrying points."""
+    return any(mine is not None and mine.size for _, mine, _ in geometry)
 
 
 def _window_min(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: float,
@@ -290,9 +338,8 @@ def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: 
     line = c[None, :] + centres[:, None] * e[None, :]
     samples = [{"x": float(p[0]), "phi": float(math.degrees(p[1] / a)), "line_force": float(v)}
                for p, v in zip(line, density)]
-    out = {"kind": "line", "length": length, "force": total, "interior_force": 0.0,
-           "peak_line_force": float(density.max(initial=0.0)), "mean_line_force": total / length,
-           "lines": 1, "interior_area": 0.0, "mean_interior_pressure": 0.0, "samples": samples}
+    out = {"length": length, "force": total, "area": zone_area, "peak_line_force": float(density.max(initial=0.0)),
+           "mean_line_force": total / length, "samples": samples}
     return out, [np.stack([c + lo * e, c + hi * e])]
 
 
@@ -355,3 +402,43 @@ def _enclosed_area(lines: list[np.ndarray]) -> float | None:
             return None
         total += 0.5 * float(np.sum(ln[:-1, 0] * ln[1:, 1] - ln[1:, 0] * ln[:-1, 1]))
     return abs(total)
+
+
+def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep: list[np.ndarray],
+                   delta: float) -> list[float]:
+    """The length of each polyline's kept segments, where two stretches within ``delta`` of each other running
+    opposite ways, from stretches of the outline within 2 delta too, count once: the two sides of a sliver of
+    the zone along a rim, which the offset puts onto one line (not a rim's two arms near a sharp end)."""
+    from scipy.spatial import cKDTree
+
+    pts, ds, owner, direction, source, source_arc = [], [], [], [], [], []
+    for i, (pl, ol, kept) in enumerate(zip(polylines, outlines, keep)):
+        seg = np.diff(pl, axis=0)
+        lengths = np.linalg.norm(seg, axis=1)
+        o_len = np.linalg.norm(np.diff(ol, axis=0), axis=1)
+        o_start = np.concatenate([[0.0], np.cumsum(o_len)[:-1]])
+        for k in np.flatnonzero(kept & (lengths > 0)):
+            n = max(1, math.ceil(lengths[k] / (0.5 * delta)))
+            u = (np.arange(n) + 0.5) / n
+            pts.append(pl[k] + u[:, None] * seg[k])
+            source.append(ol[k] + u[:, None] * (ol[k + 1] - ol[k]))
+            source_arc.append(o_start[k] + u * o_len[k])
+            ds.append(np.full(n, lengths[k] / n))
+            owner.append(np.full(n, i))
+            direction.append(np.tile(seg[k] / lengths[k], (n, 1)))
+    out = np.zeros(len(polylines))
+    if not pts:
+        return [float(v) for v in out]
+    P, dl, who, d = np.vstack(pts), np.concatenate(ds), np.concatenate(owner), np.vstack(direction)
+    src, arc = np.vstack(source), np.concatenate(source_arc)
+    pairs = cKDTree(P).query_pairs(delta, output_type="ndarray")
+    duplicate = np.zeros(len(P), bool)
+    if len(pairs):
+        p, q = pairs[:, 0], pairs[:, 1]
+        apart = np.linalg.norm(src[p] - src[q], axis=1)
+        # the two sides of a sliver: close across, far along the outline (not a local fold of the offset line)
+        sides = (apart <= 2 * delta) & ((who[p] != who[q]) | (np.abs(arc[p] - arc[q]) > 2 * apart + delta))
+        opposite = (np.einsum("nk,nk->n", d[p], d[q]) < -0.5) & sides
+        duplicate[np.maximum(p, q)[opposite]] = True
+    np.add.at(out, who[~duplicate], dl[~duplicate])
+    return [float(v) for v in out]
