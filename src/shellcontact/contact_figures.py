@@ -95,6 +95,8 @@ def _draw_line_force(ax, fig, result, rim: dict | None, lines: list[np.ndarray])
     lc.set_clim(0.0, max(float(np.max(values)), 1e-300))
     ax.add_collection(lc)
     fig.colorbar(lc, ax=ax, label=f"line force{_unit(result, 'force/length')}", ticks=MaxNLocator(6), pad=0.02)
+    ax.plot([], [], "-", color=lc.cmap(0.6), lw=3.5, label="contact boundary")  # as on the other maps
+    ax.legend(loc="upper right", fontsize=8)
     return True
 
 

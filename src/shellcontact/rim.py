@@ -321,12 +321,19 @@ def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: 
     whose length follows from the strip's perimeter P and area A as the long side of a P, A rectangle."""
     length = 0.5 * (0.5 * perimeter + math.sqrt(max(0.25 * perimeter ** 2 - 4.0 * zone_area, 0.0)))
     c = np.average(pts, axis=0, weights=f)
-    _, vecs = np.linalg.eigh(np.cov((pts - c).T, aweights=f))
-    e = vecs[:, -1]  # the line's direction (principal axis of the forces)
+    e = np.array([1.0, 0.0])
+    if len(pts) >= 2:
+        cov = np.cov((pts - c).T, aweights=f)
+        if np.all(np.isfinite(cov)):
+            e = np.linalg.eigh(cov)[1][:, -1]  # the line's direction (principal axis of the forces)
     s = (pts - c) @ e
     a = space.mesh.shell.radius
     half = 2.0 * float(np.median(_width_across(space, pts, np.tile(e, (len(pts), 1)))))  # two element lengths
     lo, hi = float(s.min()), float(s.max())
+    if not hi - lo > 0.0 or not half > 0.0:  # the forces at one point: one sample, the mean
+        sample = [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": total / length}]
+        return ({"length": length, "force": total, "area": zone_area, "peak_line_force": total / length,
+                 "mean_line_force": total / length, "samples": sample}, [np.stack([c, c])])
     nb = int(min(MAX_BINS, max(1, round((hi - lo) / half))))
     centres = lo + (np.arange(nb) + 0.5) * (hi - lo) / nb
     d = np.abs(centres[:, None] - s[None, :])
