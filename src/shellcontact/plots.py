@@ -173,8 +173,8 @@ def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.
     # the map from the finite-element fields on a refined copy of the mesh (vertex values alone draw blocks)
     sol = result.solution
     fine = _refined(result, SAMPLING_POINTS)
-    xf, phf = fine.p[0], fine.p[1] / sol.shell.radius
-    vm_fine = sol.surface(xf, phf, surface, values=sol.evaluate(xf, phf)).von_mises
+    xf, phf, values = sol.sampled  # the fields at fine's vertices, evaluated once (also for summary's maxima)
+    vm_fine = sol.surface(xf, phf, surface, values=values).von_mises
     tri_fine = Triangulation(xf, np.degrees(phf), fine.t.T)
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()

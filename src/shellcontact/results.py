@@ -198,14 +198,20 @@ class ShellSolution:
             out["strain"][name] = {"e11": e11, "e22": e22, "g12": g12}
         return out
 
+    @functools.cached_property
+    def sampled(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """x, φ and the fields at the vertices of ``sampling_mesh``: evaluated once for the stress maxima and the
+        von Mises map."""
+        x, s = sampling_mesh(self.space.mesh.mesh).p
+        phi = s / self.shell.radius
+        return x, phi, self.evaluate(x, phi)
+
     def stress_extremes(self, yield_stress: float | None = None) -> dict[str, dict]:
         """Per surface, over the vertices of ``sampling_mesh`` (the mesh refined uniformly, as von_mises.png
         draws it: the stresses vary inside an element, and their peak is rarely at a vertex): the largest von
         Mises stress and where (x, φ in degrees), the largest and smallest principal stress, and the
         utilisation σ_v / yield_stress if given."""
-        x, s = sampling_mesh(self.space.mesh.mesh).p
-        phi = s / self.shell.radius
-        d = self.evaluate(x, phi)
+        x, phi, d = self.sampled
         out = {}
         for name in SURFACES:
             st = self.surface(x, phi, name, d)
