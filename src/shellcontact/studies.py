@@ -85,8 +85,9 @@ def summary_row(summary: dict[str, Any], probe_components: Sequence[str] = ("w",
                     row[col + suffix] = e[key]
             if isinstance(e.get("zone"), dict) and e["zone"].get("area") is not None:
                 row["zone_area" + suffix] = e["zone"]["area"]  # the area that converges (contact.contact_zone)
-            if isinstance(e.get("rim"), dict):  # the rim's mean line force, or a line contact's line load
-                row["line_force" + suffix] = e["rim"]["mean_line_force"]
+            # the rim's mean line force, or a line contact's line load; empty where no rim was found (a point
+            # contact on a coarse mesh)
+            row["line_force" + suffix] = e["rim"]["mean_line_force"] if isinstance(e.get("rim"), dict) else None
     it = summary.get("iterations")
     if isinstance(it, int):
         row["iterations"] = it
