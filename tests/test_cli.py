@@ -197,7 +197,7 @@ def test_contact_sweep_force_indentation(tmp_path: Path) -> None:
     cli(*args, cwd=tmp_path)
     text = _csv(tmp_path / "fi" / "sweep.csv")
     header = text.splitlines()[0].split(",")
-    for col in ("punch.0.indentation", "energy", "max_abs_w", "force", "normal_force", "area", "peak_pressure"):
+    for col in ("punch.0.indentation", "energy", "max_abs_w", "force", "normal_force", "zone_area", "line_force"):
         assert col in header, col
     rows = [dict(zip(header, ln.split(","))) for ln in text.splitlines()[1:]]
     force = [float(r["force"]) for r in rows]

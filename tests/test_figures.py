@@ -49,7 +49,7 @@ def test_units_on_every_axis_and_colour_bar(panel) -> None:
                 if not numbers:
                     continue
                 assert text, f"{name}: axes {i} shows {numbers[:3]} … with no label"
-                assert text.endswith(("[mm]", "[MPa]", "[deg]")), (name, text)
+                assert text.endswith(("[mm]", "[MPa]", "[deg]", "[N/mm]")), (name, text)
                 labelled += 1
     assert labelled >= 25
     # the system's labels, not SI ones, and the titles' figures too
@@ -105,12 +105,13 @@ def test_one_colour_scale_per_quantity(panel) -> None:
 
 def test_study_figures_carry_units() -> None:
     """The swept key's unit comes from the case-file schema, the results' from the case's system."""
-    rows = [{"punch.0.indentation": d, "force": 1e3 * d, "area": d, "energy": d, "max_abs_w": d} for d in (1.0, 2.0)]
+    rows = [{"punch.0.indentation": d, "force": 1e3 * d, "zone_area": d, "energy": d, "max_abs_w": d}
+            for d in (1.0, 2.0)]
     kind = key_kind("punch.0.indentation")
     fig = plots.plot_sweep(rows, "punch.0.indentation", system="mm", param_kind=kind)
     labels = {ax.get_ylabel(): ax.get_xlabel() for ax in fig.axes}
     assert set(labels.values()) == {"punch.0.indentation [mm]"}
-    assert set(labels) == {"contact force |F| [N]", "contact area [mm²]", "strain energy [N·mm]", "max |w| [mm]"}
+    assert set(labels) == {"contact force |F| [N]", "contact zone area [mm²]", "strain energy [N·mm]", "max |w| [mm]"}
     ax = plots.plot_force_indentation(rows, "punch.0.indentation", system="SI", param_kind=kind).axes[0]
     assert ax.get_xlabel() == "punch.0.indentation [m]" and ax.get_ylabel().endswith("[N]")
     counts = [{"mesh.nx": n, "energy": 1.0 / n} for n in (4, 8)]

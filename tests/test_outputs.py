@@ -291,7 +291,8 @@ def test_report_opens_with_the_case_and_a_headline_table_with_units(contact_run:
         r'<tr><td>([^<]+)</td><td class="num">([^<]+)</td><td class="unit">([^<]*)</td>', head)}
     assert rows["total normal force"] == (f"{c['total_normal_force']:.6g}", "N")
     assert rows["contact zone area"] == (f"{c['zone']['area']:.6g}", "m²")
-    assert rows["peak contact pressure"] == (f"{c['peak_pressure']:.6g}", "Pa")
+    assert rows["peak nodal pressure (mesh-dependent)"] == (f"{c['peak_pressure']:.6g}", "Pa")
+    assert rows["rim line force (mean)"] == (f"{c['rim']['mean_line_force']:.6g}", "N/m")
     assert rows["max deflection |w|"] == (f"{s['max_abs_w']:.6g}", "m")
     assert rows["max von Mises stress"] == (f"{max(v['von_mises_max'] for v in s['stresses'].values()):.6g}", "Pa")
     assert rows["equilibrium residual"][0] == f"{s['equilibrium']['relative_residual']:.6g}"

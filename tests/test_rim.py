@@ -1,13 +1,14 @@
-"""The rim's line force (summary ``contact.rim``, shellcontact.rim): converges on three meshes.
+"""The contact force's decomposition (summary ``contact.rim``, shellcontact.rim): converges, and equals closed forms.
 
-The paper's panel (a sphere on a clamped panel): a Kirchhoff shell carries the load in a line force along the
-rim of the contact zone. The rim is the level line of the gap at the zone's tolerance, so its length and the
-mean line force (rim force / length) converge with the displacement field, unlike the active-vertex outline
-(0.89/0.88/1.21 m on three meshes in an earlier prototype). Checked: the length converges and agrees with the
-perimeter of the ellipse with the zone's extents (Ramanujan's formula: the contact patch of a sphere on a
-cylinder is close to an ellipse), the rim carries the whole force (the interior lifts off), rim + interior
-force is the total normal force, and on a band round a full pipe the rim lines run round the circumference
-(the seam does not cut them).
+For a Kirchhoff shell the contact multiplier is a measure: a line force along the zone's boundary, a pressure
+inside, point forces where a zone is a point. The paper's panel (a sphere on a clamped panel) carries nearly all
+of its load in a line force round the rim while the inside lifts off; the level line of the gap at the zone's
+tolerance lies about 10 mm outside that line (a distance that converges: the gap grows like the squared distance
+outside the contact), so the rim is the level line moved inward onto the forces. Checked here: the headlines
+converge under uniform refinement (they change by ≤ 5 % from ``mesh.refine`` 1 to 2; the old definition, the
+force within three element widths of the level line, fell from 685 to 438 kN/m there), the decomposition sums
+to the total normal force, the plates on a pipe give the line load F/L (a closed form: equilibrium of the
+plate), uniform along the line, and a band round a full pipe gives whole circles.
 """
 
 from __future__ import annotations
@@ -18,49 +19,82 @@ from pathlib import Path
 import pytest
 
 import shellcontact
-from shellcontact.case import load_case
+from shellcontact.case import case_from_dict, load_case
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
+#: the headline paths of the contact decomposition under ``contact.<k>``
+HEADLINES = ("force_magnitude", "zone.area", "rim.length", "rim.force", "rim.mean_line_force")
+
+
+def _get(entry: dict, path: str) -> float:
+    for key in path.split("."):
+        entry = entry[key]
+    return float(entry)
+
 
 @pytest.fixture(scope="module")
-def panel_rims():
+def panel_levels():
+    """The paper's panel at ``mesh.refine`` 0, 1, 2 (18k, 71k, 280k dofs; about 2 minutes in all)."""
     out = []
-    for n in (16, 32, 64):
-        res = shellcontact.solve(load_case(EXAMPLES / "paper_panel.toml", [f"mesh.nx={n}", f"mesh.nphi={n}"]))
-        entry = res.summary()["contact"][0]
-        out.append((n, entry, res.case.shell.radius))
+    for refine in (0, 1, 2):
+        res = shellcontact.solve(load_case(EXAMPLES / "paper_panel.toml", [f"mesh.refine={refine}"]))
+        out.append(res.summary()["contact"][0])
     return out
 
 
-def test_rim_converges_on_three_meshes(panel_rims):
-    lengths = [e["rim"]["length"] for _, e, _ in panel_rims]
-    means = [e["rim"]["mean_line_force"] for _, e, _ in panel_rims]
-    print("\n mesh  rim length [m]  mean line force [N/m]  rim force / total")
-    for (n, e, _), length, mean in zip(panel_rims, lengths, means):
-        print(f" {n:4d}  {length:.5f}        {mean:.6g}              {e['rim']['force'] / e['total_normal_force']:.4f}")
-    # the differences between levels shrink, and the two finer meshes agree to 1 %
+def test_panel_headlines_converge_under_refinement(panel_levels):
+    """Measured (refine 0, 1, 2): rim length 0.3452, 0.3429, 0.3428 m; mean line force 790.5, 788.7, 783.8 kN/m;
+    rim force 272.9, 270.5, 268.7 kN; zone area 8.54, 8.32, 8.24e-3 m². Largest change from 1 to 2: 0.96 %
+    (zone area; rim force 0.66 %, mean line force 0.62 %, rim length 0.04 %); bound 5 % (the issue's)."""
+    print("\n headline                 refine 0      refine 1      refine 2    change 1→2")
+    for path in HEADLINES:
+        v = [_get(e, path) for e in panel_levels]
+        change = abs(v[2] / v[1] - 1)
+        print(f" {path:22s} {v[0]:12.6g}  {v[1]:12.6g}  {v[2]:12.6g}   {change:.4f}")
+        assert change <= 0.05, path
+    lengths = [e["rim"]["length"] for e in panel_levels]
     assert abs(lengths[2] - lengths[1]) < abs(lengths[1] - lengths[0])
-    assert abs(lengths[2] / lengths[1] - 1) <= 0.01
-    assert abs(means[2] / means[1] - 1) <= 0.01
-    for _, e, a in panel_rims[1:]:
-        rim = e["rim"]
-        # the interior of the zone lifts off: the rim carries (nearly) all of the force
-        assert rim["force"] >= 0.99 * e["total_normal_force"]
-        assert rim["peak_line_force"] >= rim["mean_line_force"] > 0
-        # the patch is close to an ellipse with the zone's semi-axes (in x and in s = aφ)
-        A = 0.5 * (e["zone"]["x"][1] - e["zone"]["x"][0])
-        B = 0.5 * a * math.radians(e["zone"]["phi"][1] - e["zone"]["phi"][0])
-        ellipse = math.pi * (3 * (A + B) - math.sqrt((3 * A + B) * (A + 3 * B)))
-        assert rim["length"] == pytest.approx(ellipse, rel=0.02)
-        for s in rim["samples"]:  # sampled on the rim: at the edge of the zone's extent, never beyond it
-            assert e["zone"]["x"][0] - 1e-3 <= s["x"] <= e["zone"]["x"][1] + 1e-3
-            assert e["zone"]["phi"][0] - 0.1 <= s["phi"] <= e["zone"]["phi"][1] + 0.1
-    for _, e, _ in panel_rims:
-        rim = e["rim"]
+
+
+def test_panel_decomposition(panel_levels):
+    """The rim carries nearly all of the force (measured 100, 99.2, 98.5 %: the rest is a faint inner contact at
+    the crown), rim + interior = total, the line force's samples lie on the rim inside the zone's extent, and the
+    rim lies inside the level line of the gap (shorter than the ellipse through the zone's extents)."""
+    for e in panel_levels:
+        rim, zone = e["rim"], e["zone"]
+        assert rim["kind"] == "area" and rim["lines"] == 1 and rim["samples"]
         assert rim["force"] + rim["interior_force"] == pytest.approx(e["total_normal_force"], rel=1e-12)
+        assert rim["force"] >= 0.95 * e["total_normal_force"]
         assert rim["mean_line_force"] == pytest.approx(rim["force"] / rim["length"], rel=1e-12)
-        assert rim["lines"] == 1 and rim["samples"]
+        assert rim["peak_line_force"] >= rim["mean_line_force"] > 0
+        A = 0.5 * (zone["x"][1] - zone["x"][0])
+        B = 0.5 * math.radians(zone["phi"][1] - zone["phi"][0])  # radius 1 m
+        ellipse = math.pi * (3 * (A + B) - math.sqrt((3 * A + B) * (A + 3 * B)))
+        assert 0.8 * ellipse < rim["length"] < ellipse
+        for s in rim["samples"]:
+            assert zone["x"][0] <= s["x"] <= zone["x"][1]
+            assert zone["phi"][0] <= s["phi"] <= zone["phi"][1]
+
+
+def test_plates_on_a_pipe_carry_the_line_load_F_over_L():
+    """examples/ring_stiffness.toml: each plate's force F = 200 N spreads over the pipe's length L = 0.3 m as a
+    line load F/L = 666.7 N/m (both plates: the bottom one carries the same force). Measured: 666.667 N/m for
+    both (to 4e-8: the line's length, from the thin zone's perimeter and area, is 0.3 m to 4e-8), samples uniform
+    to 1e-4; bounds 1e-6 and 1e-3. The old rim counted both sides of the thin zone round the line: 331 N/m."""
+    res = shellcontact.solve(load_case(EXAMPLES / "ring_stiffness.toml"))
+    L = res.case.shell.length
+    for e in res.summary()["contact"]:
+        rim = e["rim"]
+        expected = e["total_normal_force"] / L
+        print(f"\n plate: line load {rim['mean_line_force']:.6g} N/m, F/L {expected:.6g} N/m, "
+              f"samples {[round(s['line_force'], 2) for s in rim['samples']]}")
+        assert rim["kind"] == "line" and rim["lines"] == 1
+        assert rim["mean_line_force"] == pytest.approx(expected, rel=1e-6)
+        assert rim["length"] == pytest.approx(L, rel=1e-6)
+        values = [s["line_force"] for s in rim["samples"]]
+        assert len(values) >= 3 and max(values) / min(values) - 1 <= 1e-3  # no vertex/midpoint zig-zag
+        assert rim["interior_force"] == 0.0
 
 
 def test_band_rim_runs_round_the_pipe():
@@ -69,6 +103,58 @@ def test_band_rim_runs_round_the_pipe():
     e = res.summary()["contact"][0]
     rim, a = e["rim"], res.case.shell.radius
     circles = rim["length"] / (2 * math.pi * a)
-    print(f"\n band clamp: rim {rim['length']:.6f} m = {circles:.5f} circles, {rim['lines']} lines")
+    print(f"\n band clamp: rim {rim['length']:.6f} m = {circles:.5f} circles, {rim['lines']} lines, "
+          f"rim force {rim['force']:.6g} of {e['total_normal_force']:.6g}")
     assert circles == pytest.approx(round(circles), abs=1e-3) and round(circles) >= 2
     assert rim["force"] + rim["interior_force"] == pytest.approx(e["total_normal_force"], rel=1e-12)
+
+
+def test_mirror_symmetric_saddles_get_the_same_numbers():
+    """examples/vessel_saddles.toml: two saddles mirror images of each other (x → −x) on a mirror-symmetric mesh
+    carry the same force, so every quantity of the decomposition must agree. Measured: relative differences
+    ≤ 5e-9 (the solve's own asymmetry is 1e-10 in the force); bound 1e-6 (the issue asks for 1e-3). Before: rim
+    line forces 2 413.54 vs 2 750.74 N/m, from the element picked for a point on a vertex (its width across the
+    line) and from which of two segments a point nearest a corner of the outline took its normal."""
+    res = shellcontact.solve(load_case(EXAMPLES / "vessel_saddles.toml"))
+    left, right = res.summary()["contact"]
+    assert left["total_normal_force"] == pytest.approx(right["total_normal_force"], rel=1e-9)
+    for key in ("length", "force", "interior_force", "mean_line_force", "peak_line_force", "interior_area"):
+        print(f"\n {key}: {left['rim'][key]:.10g} vs {right['rim'][key]:.10g}")
+        assert left["rim"][key] == pytest.approx(right["rim"][key], rel=1e-6, abs=1e-9), key
+    assert left["rim"]["lines"] == right["rim"]["lines"]
+
+
+def test_sleeve_edge_line_force_equals_the_1d_free_boundary_solution():
+    """A sleeve of finite length shrunk onto a cylinder (tests/test_finite_punch.py's case: a 1° panel with
+    symmetry edges, an exact model of the axisymmetric state) carries a band of pressure from x = 0 to the free
+    end x_t and a ring force at its edge x = C (the independent 1D oracle's exact free-boundary solution).
+    The zone's outline runs along the panel's symmetry edges there, which carry no rim. Measured at nx = 80:
+    the rim's force per unit circumferential length 0.806462 against the oracle's edge ring force 0.806428
+    (4e-5), the rest (band and the ring at x_t, which lies inside the zone: the shell lifts off by less than
+    the tolerance between x_t and C) 0.838936 against 0.838969 (4e-5); the mean line force 0.78202 (3.0 %
+    below: the sliver of zone at the edge turns round within a millimetre, counted in the rim's length).
+    Bounds 1e-3 and 0.1."""
+    from oracles.axisym import Shell1D, sleeve_free_boundary
+
+    a, t, e, mu, delta, c = 1.0, 0.02, 2.0e5, 0.3, 1e-3, 0.3
+    rs = a + t / 2 - delta
+    ref = sleeve_free_boundary(Shell1D(a, t, e, mu, 0.0, 1.0), rs, c)
+    data = {
+        "shell": {"radius": a, "length": 1.0, "x_start": 0.0, "angle": [0.0, 1.0], "thickness": t, "young": e,
+                  "poisson": mu},
+        "supports": {"x_min": "symmetry", "x_max": "clamped", "phi_min": "symmetry", "phi_max": "symmetry"},
+        "mesh": {"nx": 80, "nphi": 2},
+        "punch": [{"shape": "cylinder", "inverted": True, "center": [0.0, 0.0, 0.0], "axis": [1.0, 0.0, 0.0],
+                   "radius": rs, "extent": {"x": [-c, c]}}],
+    }
+    res = shellcontact.solve(case_from_dict(data))
+    rim = res.summary()["contact"][0]["rim"]
+    width = a * math.radians(1.0)
+    edge, rest = rim["force"] / width, rim["interior_force"] / width
+    print(f"\n rim force / width {edge:.6f} (oracle ring at the edge {ref.ring_edge:.6f}); interior / width "
+          f"{rest:.6f} (oracle {ref.force_per_length - ref.ring_edge:.6f}); mean line force "
+          f"{rim['mean_line_force']:.6f}, rim length {rim['length']:.6f} m (panel width {width:.6f} m)")
+    assert edge == pytest.approx(ref.ring_edge, rel=1e-3)
+    assert rest == pytest.approx(ref.force_per_length - ref.ring_edge, rel=1e-3)
+    assert rim["mean_line_force"] == pytest.approx(ref.ring_edge, rel=0.1)
+    assert rim["lines"] == 1 and rim["kind"] == "area"

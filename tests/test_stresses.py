@@ -186,7 +186,10 @@ def test_yield_stress_gives_utilisation_and_a_warning(tmp_path):
     assert worst == pytest.approx(vm / 355e6, rel=1e-12) and worst > 1
     assert any("beyond yield" in w for w in s["warnings"])
     fields = r.vertex_fields()
-    assert np.max(fields["utilisation_top"]) == pytest.approx(s["stresses"]["top"]["utilisation_max"], rel=1e-12)
+    top = s["stresses"]["top"]
+    assert top["utilisation_max"] == pytest.approx(top["von_mises_max"] / 355e6, rel=1e-12)
+    # the maximum is over the field on a refined copy of the mesh, which holds the vertices
+    assert top["utilisation_max"] >= np.max(fields["utilisation_top"]) * (1 - 1e-12)
     # a yield stress above every stress: no warning
     data["material"] = {"yield_stress": 10 * vm}
     assert not any("beyond yield" in w for w in sc.solve(sc.case_from_dict(data)).summary()["warnings"])
@@ -196,3 +199,32 @@ def test_yield_stress_gives_utilisation_and_a_warning(tmp_path):
     assert set(p["stress"]) == set(SURFACES) and set(p["strain"]["top"]) == {"e11", "e22", "g12"}
     assert p["stress"]["middle"]["s22"] == pytest.approx(
         0.5 * (p["stress"]["top"]["s22"] + p["stress"]["bottom"]["s22"]), rel=1e-9, abs=1e-3)
+
+
+def test_von_mises_max_is_the_peak_of_the_field_not_of_the_vertices():
+    """summary ``stresses.<surface>.von_mises_max`` is the maximum of the finite-element field (sampled on the
+    refined copy of the mesh that von_mises.png draws), checked against 200 000 random points inside the
+    elements on the paper's panel. Measured (with 400 000 points): the summary is 0.50 %, 0.00 %, 0.13 % below
+    the random points' maximum (bottom, middle, top; random points fall nearer the peak by chance) and never
+    below the vertex maximum; the vertex maximum was 8.3 % below on the bottom surface. Bound 2 %."""
+    from shellcontact.demo import demo_case_path
+
+    r = sc.solve(sc.load_case(demo_case_path()))
+    sol, a = r.solution, r.case.shell.radius
+    m = sol.space.mesh.mesh
+    rng = np.random.default_rng(0)
+    n = 200_000
+    e = rng.integers(0, m.t.shape[1], n)
+    b = rng.random((2, n))
+    out = b.sum(axis=0) > 1
+    b[:, out] = 1 - b[:, out]  # uniform in the reference triangle
+    P = m.p[:, m.t[0, e]] * (1 - b[0] - b[1]) + m.p[:, m.t[1, e]] * b[0] + m.p[:, m.t[2, e]] * b[1]
+    dense = sol.evaluate(P[0], P[1] / a)
+    x, s = m.p
+    at_vertices = sol.evaluate(x, s / a)
+    for name, st in r.stresses.items():
+        peak = float(sol.surface(P[0], P[1] / a, name, dense).von_mises.max())
+        vertex = float(sol.surface(x, s / a, name, at_vertices).von_mises.max())
+        print(f"\n {name}: summary {st['von_mises_max']:.6e}, random points {peak:.6e}, vertices {vertex:.6e}")
+        assert st["von_mises_max"] >= vertex * (1 - 1e-12)
+        assert st["von_mises_max"] >= (1 - 0.02) * peak

@@ -51,6 +51,8 @@ HEADLINES: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = (
     ("contact.*.total_normal_force", ()),
     ("contact.*.punch_travel", ()),
     ("contact.*.zone.area", ()),
+    ("contact.*.rim.length", ()),
+    ("contact.*.rim.force", (("contact.*.total_normal_force", 1.0),)),
     ("contact.*.rim.mean_line_force", ()),
 )
 RATIO = 2.0  # element size of a mesh over that of the next finer one

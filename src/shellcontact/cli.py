@@ -161,13 +161,17 @@ def _print_summary(con: Console, s: dict) -> None:
             parts = [
                 f"{name} {q(c[k], kind, path=f'contact.{i}.{k}')}"
                 for k, name, kind in (("force_magnitude", "force", "force"),
-                                      ("total_normal_force", "total normal force", "force"),
-                                      ("peak_pressure", "peak pressure", "pressure"))
+                                      ("total_normal_force", "total normal force", "force"))
                 if isinstance(c.get(k), (int, float))
             ]
             zone = c.get("zone")
             if isinstance(zone, dict) and isinstance(zone.get("area"), (int, float)):
                 parts.append(f"zone area {q(zone['area'], 'area', path=f'contact.{i}.zone.area')}")
+            rim = c.get("rim")
+            if isinstance(rim, dict):  # the converging decomposition (shellcontact.rim), not the nodal Λ/ω
+                name = "line load" if rim.get("kind") == "line" else "rim line force (mean)"
+                value = q(rim["mean_line_force"], "force/length", path=f"contact.{i}.rim.mean_line_force")
+                parts.append(f"{name} {value}")
             con.print(f"punch {i}: " + "  ".join(parts))
     st = s.get("stresses")
     if st:

@@ -37,9 +37,9 @@ def _row(method: str, result: Result, seconds: float) -> dict:
     return {
         "method": method,
         "force": c["force_magnitude"],
-        "contact_area": c["area"],
+        "zone_area": c["zone"]["area"],
         "active_vertices": c["active_vertices"],
-        "peak_pressure": c["peak_pressure"],
+        "line_force": c["rim"]["mean_line_force"] if "rim" in c else 0.0,
         "max_deflection": s["max_abs_w"],
         "stationarity": s["kkt"]["stationarity"],
         "penetration": s["kkt"]["penetration"],
@@ -55,9 +55,9 @@ def _row(method: str, result: Result, seconds: float) -> dict:
 COLUMNS = (
     ("method", "method", None, "{}"),
     ("force", "force", "force", "{:.6e}"),
-    ("contact_area", "area", "area", "{:.4e}"),
+    ("zone_area", "zone area", "area", "{:.4e}"),
     ("active_vertices", "active", None, "{}"),
-    ("peak_pressure", "peak p", "pressure", "{:.4e}"),
+    ("line_force", "rim line force", "force/length", "{:.4e}"),
     ("max_deflection", "max|w|", "length", "{:.6e}"),
     ("stationarity", "stationarity", None, "{:.1e}"),
     ("penetration", "penetration", "length", "{:.1e}"),

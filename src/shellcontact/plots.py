@@ -164,25 +164,25 @@ def plot_deflection(result, path: str | Path | None = None) -> Figure:
 def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.ndarray] | None = None) -> Figure:
     """Map of the von Mises stress on the worse surface (the one with the largest value) over (x, φ°), its
     maximum marked, the contact boundary and, with ``[material] yield_stress``, the yield contour."""
+    from .results import SAMPLING_POINTS
+
     fields = vertex_fields(result) if fields is None else fields
-    surface = max(("bottom", "middle", "top"), key=lambda k: float(np.max(fields[f"von_mises_{k}"])))
+    extremes = result.stresses  # the maximum over the same refined copy as the map: one value (summary.json)
+    surface = max(("bottom", "middle", "top"), key=lambda k: extremes[k]["von_mises_max"])
     vm = np.asarray(fields[f"von_mises_{surface}"], float)
-    tri = _vertex_map(result)
-    x, phi = tri.x, tri.y
-    # the map from the finite-element fields on a refined copy of the mesh (vertex values alone draw blocks);
-    # the maximum and the title from the vertex values, as summary.json reports them
+    # the map from the finite-element fields on a refined copy of the mesh (vertex values alone draw blocks)
     sol = result.solution
-    fine = _refined(result, 30000)
-    xf, phf = fine.p[0], fine.p[1] / sol.shell.radius
-    vm_fine = sol.surface(xf, phf, surface, values=sol.evaluate(xf, phf)).von_mises
+    fine = _refined(result, SAMPLING_POINTS)
+    xf, phf, values = sol.sampled  # the fields at fine's vertices, evaluated once (also for summary's maxima)
+    vm_fine = sol.surface(xf, phf, surface, values=values).von_mises
     tri_fine = Triangulation(xf, np.degrees(phf), fine.t.T)
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
     cs = ax.tricontourf(tri_fine, vm_fine, levels=_levels(np.concatenate([vm_fine, vm])), cmap="plasma")
     fig.colorbar(cs, ax=ax, label=f"von Mises stress, {surface} surface{_unit(result, 'pressure')}",
                  ticks=MaxNLocator(8))
-    i = int(np.argmax(vm))
-    ax.plot(x[i], phi[i], "wx", ms=9, mew=2, label="maximum")
+    top, at = extremes[surface]["von_mises_max"], extremes[surface]["at"]
+    ax.plot(at["x"], at["phi"], "wx", ms=9, mew=2, label="maximum")
     fy = getattr(result.case, "yield_stress", None)
     if fy is not None and vm.min() < fy < vm.max():
         ax.tricontour(tri_fine, vm_fine, levels=[fy], colors="w", linestyles="--", linewidths=1.2)
@@ -191,9 +191,9 @@ def plot_von_mises(result, path: str | Path | None = None, fields: dict[str, np.
     legend = ax.legend(loc="upper right", fontsize=8, facecolor="0.5", framealpha=0.6)
     for text in legend.get_texts():
         text.set_color("w")
-    util = f", utilisation {_fmt(vm[i] / fy)}" if fy else ""
-    ax.set_title(f"von Mises stress ({surface} surface): max {_q(result, vm[i], 'pressure')}{util}\n"
-                 f"at x = {_q(result, x[i], 'length')}, φ = {_fmt(phi[i])}°", fontsize=10)
+    util = f", utilisation {_fmt(top / fy)}" if fy else ""
+    ax.set_title(f"von Mises stress ({surface} surface): max {_q(result, top, 'pressure')}{util}\n"
+                 f"at x = {_q(result, at['x'], 'length')}, φ = {_fmt(at['phi'])}°", fontsize=10)
     _map_axes(ax, result)
     return _finish(fig, path)
 
@@ -230,11 +230,9 @@ def _surface(ax, pts: np.ndarray, t: np.ndarray, values: np.ndarray, cmap: str, 
 
 def _refined(result, max_points: int):
     """A uniformly refined copy of the mesh with at most ~max_points vertices (level ≤ 3)."""
-    m = result.solution.space.mesh.mesh
-    level = 0
-    while level < 3 and m.p.shape[1] * 4 ** (level + 1) <= max_points:
-        level += 1
-    return m.refined(level) if level else m
+    from .results import sampling_mesh
+
+    return sampling_mesh(result.solution.space.mesh.mesh, max_points)
 
 
 def plot_deformed(result, path: str | Path | None = None, scale: float | None = None) -> Figure:
@@ -320,129 +318,27 @@ def plot_sections(result, path: str | Path | None = None, scale: float | None = 
     return _finish(fig, path)
 
 
-def _contact_box(fields: dict[str, np.ndarray], x: np.ndarray, phi: np.ndarray, hx: float, hphi: float):
-    """The candidate zone, narrowed to the contact region (padded by its size or 4 cells) when smaller."""
-    status = fields.get("contact_status")
-    cand = status >= 0 if status is not None else np.ones(x.size, bool)
-    if not np.any(cand):
-        cand = np.ones(x.size, bool)
-    xr, pr = [float(x[cand].min()), float(x[cand].max())], [float(phi[cand].min()), float(phi[cand].max())]
-    act = status == 1 if status is not None else np.zeros(x.size, bool)
-    if np.any(act):
-        for r, c, h in ((xr, x[act], hx), (pr, phi[act], hphi)):
-            pad = max(float(np.ptp(c)), 4.0 * h)
-            r[0], r[1] = max(r[0], float(c.min()) - pad), min(r[1], float(c.max()) + pad)
-    px, pp = 0.03 * (xr[1] - xr[0] or 1.0), 0.03 * (pr[1] - pr[0] or 1.0)
-    return (xr[0] - px, xr[1] + px), (pr[0] - pp, pr[1] + pp)
-
-
-def _punch_status(result, nv: int) -> list[np.ndarray] | None:
-    """Per punch, the vertex status of its own rows (1 active, 0 candidate, −1 not its candidate), or None."""
-    c = getattr(result, "contact", None)
-    op = getattr(c, "operator", None)
-    if op is None or getattr(c, "active", None) is None or len(op.punches) < 2:
-        return None
-    out = []
-    for k in range(len(op.punches)):
-        rows = op.rows(k)
-        rows = rows[op.vertex[rows] >= 0]
-        status = np.full(nv, -1)
-        status[op.vertex[rows]] = 0
-        status[op.vertex[rows][np.asarray(c.active, bool)[rows]]] = 1
-        if op.twins is not None:
-            slave, master = op.twins
-            status[slave] = status[master]
-        out.append(status)
-    return out
-
-
 def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
-    """Contact-pressure map over the candidate zone, with the contact boundary drawn (None without contact);
-    with several punches one panel per punch, each zoomed to its own zone, on one colour scale."""
-    fields = contact_vertex_fields(result)
-    p = fields.get("contact_pressure")
-    if p is None:
-        return None
-    sol = result.solution
-    tri = _vertex_map(result)
-    x, phi = tri.x, tri.y
-    p = np.asarray(p, float)
-    levels = _levels(p, 0.0)
-    per_punch = _punch_status(result, x.size)
-    statuses = per_punch or [fields.get("contact_status")]
-    fig = Figure(figsize=(6.4 if len(statuses) == 1 else 4.8 * len(statuses) + 1.2, 4.8))
-    axes = [fig.add_subplot(1, len(statuses), k + 1) for k in range(len(statuses))]
-    h = sol.space.mesh.h() / math.sqrt(2.0)
-    for k, (ax, status) in enumerate(zip(axes, statuses)):
-        cs = ax.tricontourf(tri, p, levels=levels, cmap="inferno")
-        own = {**fields, "contact_status": status} if status is not None else fields
-        if _contact_outline(ax, result, own, punch=k if per_punch else None):
-            act = np.asarray(status) == 1
-            ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
-            ax.legend(loc="upper right", fontsize=8)
-        xr, pr = _contact_box(own, x, phi, h, math.degrees(h / sol.shell.radius))
-        ax.set_xlim(*xr)
-        ax.set_ylim(*pr)
-        if per_punch:
-            mine = p[np.asarray(status) >= 0]
-            peak = float(mine.max()) if mine.size else 0.0
-            ax.set_title(f"punch {k}: peak {_q(result, peak, 'pressure')}", fontsize=10)
-        else:
-            ax.set_title(f"contact pressure at the vertices: peak {_q(result, float(np.max(p)), 'pressure')}",
-                         fontsize=10)
-        _map_axes(ax, result)
-    fig.colorbar(cs, ax=axes, label=f"contact pressure Λ/ω{_unit(result, 'pressure')}", ticks=MaxNLocator(8))
-    return _finish(fig, path)
+    """pressure.png (``contact_figures.plot_pressure``): the line force along each rim over the nodal pressure."""
+    from .contact_figures import plot_pressure as plot
+
+    return plot(result, path)
 
 
-def pressure_lines(
-    result, x: float | None = None, phi: float | None = None
-) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
-    """Nodal pressures along the mesh line x = x* (against φ°) and the line φ = φ* (against x),
-    within the candidate zone. x* and φ* (degrees) default to the peak-pressure vertex; given
-    values are moved to the nearest mesh line (pressures live at vertices)."""
-    fields = contact_vertex_fields(result)
-    p = fields.get("contact_pressure")
-    if p is None or not np.any(np.asarray(p) > 0):
-        return None
-    p = np.asarray(p, float)
-    sol = result.solution
-    xv, s = sol.space.mesh.p
-    phv = np.degrees(s / sol.shell.radius)
-    i = int(np.argmax(p))
-    x0 = xv[i] if x is None else xv[np.argmin(np.abs(xv - x))]
-    p0 = phv[i] if phi is None else phv[np.argmin(np.abs(phv - phi))]
-    tol_x = 1e-9 * max(sol.shell.length, 1.0)
-    tol_p = 1e-9 * max(float(np.ptp(phv)), 1.0)
-    status = fields.get("contact_status")
-    zone = np.asarray(status) >= 0 if status is not None else np.ones(xv.size, bool)  # the candidate zone
-    on_x = np.nonzero((np.abs(xv - x0) <= tol_x) & zone)[0]
-    on_p = np.nonzero((np.abs(phv - p0) <= tol_p) & zone)[0]
-    on_x, on_p = on_x[np.argsort(phv[on_x])], on_p[np.argsort(xv[on_p])]
-    return {
-        f"x = {_fmt(x0)}": (phv[on_x], p[on_x]),
-        f"φ = {_fmt(p0)}°": (xv[on_p], p[on_p]),
-    }
+def pressure_lines(result, x: float | None = None, phi: float | None = None):
+    """The nodal pressures along two mesh lines (``contact_figures.pressure_lines``)."""
+    from .contact_figures import pressure_lines as lines
+
+    return lines(result, x, phi)
 
 
 def plot_pressure_profiles(
     result, path: str | Path | None = None, x: float | None = None, phi: float | None = None
 ) -> Figure | None:
-    """Pressure along the mesh lines x = x* and φ = φ* (degrees; default through the peak);
-    None without contact pressure."""
-    lines = pressure_lines(result, x, phi)
-    if lines is None:
-        return None
-    fig = Figure(figsize=(10, 4))
-    for k, (label, (c, p)) in enumerate(lines.items()):
-        ax = fig.add_subplot(1, 2, k + 1)
-        ax.plot(c, p, "o-", ms=3)
-        ax.set_xlabel("φ [deg]" if label.startswith("x") else f"x{_unit(result, 'length')}")
-        ax.set_ylabel(f"nodal pressure Λ/ω{_unit(result, 'pressure')}")
-        ax.xaxis.set_major_locator(MaxNLocator(6))
-        ax.set_title(f"along {with_unit(label, 'length', result.case.units) if label.startswith('x') else label}")
-        ax.grid(True, alpha=0.3)
-    return _finish(fig, path)
+    """pressure_profiles.png (``contact_figures.plot_pressure_profiles``)."""
+    from .contact_figures import plot_pressure_profiles as plot
+
+    return plot(result, path, x, phi)
 
 
 def run_figures(
@@ -467,8 +363,8 @@ def run_figures(
 # -- study figures -------------------------------------------------------------------------------------
 SWEEP_PANELS = (
     ("force", "contact force |F|", "force"),
-    ("area", "contact area", "area"),
-    ("peak_pressure", "peak pressure", "pressure"),
+    ("zone_area", "contact zone area", "area"),
+    ("line_force", "line force (rim mean or line load)", "force/length"),
     ("energy", "strain energy", "energy"),
     ("max_abs_w", "max |w|", "length"),
 )
@@ -481,7 +377,7 @@ def _param_label(param: str, system: str, kind: str | None) -> str:
 
 def plot_sweep(rows: Sequence[dict[str, Any]], param: str, path: str | Path | None = None,
                system: str = "SI", param_kind: str | None = None) -> Figure:
-    """Each result column (force, area, peak pressure, energy, max|w|; per punch) against the parameter;
+    """Each converging result column (force, zone area, line force, energy, max|w|; per punch) against the parameter;
     ``system``: the case's ``[units] system``, ``param_kind``: the swept key's kind of quantity (axis labels)."""
     xs = np.array([r[param] for r in rows], float)
     panels = []

@@ -261,12 +261,20 @@ def _headline(s: Mapping[str, Any]) -> str:
         rim = c.get("rim")
         if isinstance(rim, Mapping):
             share = rim["force"] / c["total_normal_force"] if c["total_normal_force"] else 0.0
-            rows.append([f"{who}rim line force (mean)", rim["mean_line_force"], u("force/length"),
-                         f"peak {with_unit(_g(rim['peak_line_force']), 'force/length', system)} along "
-                         f"{with_unit(_g(rim['length']), 'length', system)} of zone boundary, carrying "
-                         f"{share:.0%} of the normal force"])
-        rows.append([f"{who}peak contact pressure", c["peak_pressure"], u("pressure"),
-                     "nodal Λ/ω; grows under refinement at a line force"])
+            if rim.get("kind") == "line":  # a line contact: the whole force is the line load
+                rows.append([f"{who}line load", rim["mean_line_force"], u("force/length"),
+                             f"force / length of the contact line ({with_unit(_g(rim['length']), 'length', system)})"])
+            else:
+                rows.append([f"{who}rim line force (mean)", rim["mean_line_force"], u("force/length"),
+                             f"along {with_unit(_g(rim['length']), 'length', system)} of rim, carrying "
+                             f"{share:.0%} of the normal force; peak (mesh-dependent) "
+                             f"{with_unit(_g(rim['peak_line_force']), 'force/length', system)}"])
+                if rim.get("interior_area"):
+                    rows.append([f"{who}interior pressure (mean)", rim["mean_interior_pressure"], u("pressure"),
+                                 f"{1 - share:.0%} of the normal force over "
+                                 f"{with_unit(_g(rim['interior_area']), 'area', system)} inside the rim"])
+        rows.append([f"{who}peak nodal pressure (mesh-dependent)", c["peak_pressure"], u("pressure"),
+                     "nodal Λ/ω, not a converging quantity: grows like 1/h at a line force"])
     rows.append(["max deflection |w|", s["max_abs_w"], u("length"), ""])
     st = s.get("stresses") or {}
     if st:
@@ -377,7 +385,7 @@ def _contact(s: Mapping[str, Any]) -> str:
     for e in entries:
         for k, v in e.items():
             sub = [f"{k}.{j}" for j in v] if isinstance(v, Mapping) else [k]
-            keys += [x for x in sub if x not in keys and x != "rim.samples"]  # the samples: summary.json
+            keys += [x for x in sub if x not in keys and x not in ("rim.samples", "rim.per_line")]  # summary.json
 
     def value(e: Mapping[str, Any], key: str) -> Any:
         head, _, tail = key.partition(".")

@@ -55,6 +55,7 @@ CONTACT_COLUMNS = (
 #: the kind of quantity (units.KINDS) of each CSV column, by name pattern (None: a count or dimensionless)
 COLUMN_KINDS = (("dofs", None), ("energy", "energy"), ("max_abs_w", "length"), ("probe*_[uvw]", "length"),
                 ("normal_force*", "force"), ("force*", "force"), ("zone_area*", "area"), ("area*", "area"),
+                ("line_force*", "force/length"),
                 ("peak_pressure*", "pressure"), ("active_vertices*", None), ("punch_travel*", "length"),
                 ("iterations", None))
 
@@ -84,6 +85,9 @@ def summary_row(summary: dict[str, Any], probe_components: Sequence[str] = ("w",
                     row[col + suffix] = e[key]
             if isinstance(e.get("zone"), dict) and e["zone"].get("area") is not None:
                 row["zone_area" + suffix] = e["zone"]["area"]  # the area that converges (contact.contact_zone)
+            # the rim's mean line force, or a line contact's line load; empty where no rim was found (a point
+            # contact on a coarse mesh)
+            row["line_force" + suffix] = e["rim"]["mean_line_force"] if isinstance(e.get("rim"), dict) else None
     it = summary.get("iterations")
     if isinstance(it, int):
         row["iterations"] = it

@@ -74,6 +74,8 @@ SUMMARY_KINDS: tuple[tuple[str, str | None], ...] = (
     ("reactions.*.force", "force"), ("reactions.*.moment", "moment"), ("reactions.*.about", "length"),
     ("equilibrium.*.force", "force"), ("equilibrium.*.moment", "moment"),
     ("contact.rim.samples.phi", "angle"), ("contact.rim.samples.x", "length"), ("contact.rim.length", "length"),
+    ("contact.rim.interior_area", "area"), ("contact.rim.per_line.length", "length"),
+    ("contact.rim.mean_interior_pressure", "pressure"),
     ("contact.rim.*line_force", "force/length"), ("contact.rim.*force", "force"),
     ("contact.zone.area", "area"), ("contact.zone.phi", "angle"), ("contact.zone.*", "length"),
     ("contact.area", "area"), ("contact.peak_pressure", "pressure"), ("contact.moment", "moment"),
