@@ -302,3 +302,20 @@ def test_wide_sleeve_solves_with_the_default_settings(sleeve_reference):
     w1d = solve(sh, np.linspace(0.0, 1.0, 801), "symmetry", "clamped", punches=[CylinderPunch(RS, (0.0, C_S))],
                 pw=5, pu=2).w(x)
     assert np.max(np.abs(w2d - w1d)) <= 1e-3 * DELTA_S
+
+
+def test_active_set_hands_over_when_it_makes_no_progress():
+    """PDAS with every violated row joining (θ = 0, as with the dense Schur complement) wanders on the sleeve at
+    mesh.refine = 0 (605 rows) without revisiting a set: the rows on the wrong side hover between 36 and 100. The
+    active set hands over to the dual once they stop falling (measured: at iteration 29, then 11 dual iterations)
+    and gets the answer of the default settings; without the fallback it says it makes no progress."""
+    from shellcontact.analysis import discretize
+    from shellcontact.solvers import solve_active_set
+
+    qp = discretize(case_from_dict(_wide_sleeve(0))).qp()
+    sol = solve_active_set(qp, growth=0.0)
+    assert sol.info["fallback"] == "dual-mprgp" and any(rec.get("stalled") for rec in sol.history)
+    ref = solve_active_set(qp)
+    assert np.abs(sol.Lambda - ref.Lambda).max() <= 1e-8 * ref.Lambda.max()
+    with pytest.raises(shellcontact.SolverError, match="makes no progress"):
+        solve_active_set(qp, growth=0.0, fallback=False)
