@@ -269,3 +269,53 @@ def test_full_cylinder_sleeve_converges_in_phi():
     assert errs[0] < errs[1] < 0  # the vertex constraint lets the shell escape: always below the oracle
     assert math.log2(errs[0] / errs[1]) >= 2.5
     assert abs(errs[1]) <= 2.5e-2
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the sleeve with the default settings (issue 23, item 2)
+# ---------------------------------------------------------------------------------------------------------------
+def _wide_sleeve(refine: int, method: str | None = None) -> dict:
+    """The sleeve on a 10° sector, 200 × 2 elements refined ``refine`` times, the default contact points
+    (vertices and midpoints) and, unless ``method`` is given, the default method: a uniform overlap whose whole
+    band [0, 0.3] starts penetrating."""
+    data = _case(1.0, "clamped", SLEEVE, 200)
+    data["shell"]["angle"] = [0.0, 10.0]
+    data["mesh"]["refine"] = refine
+    data["solver"] = {} if method is None else {"method": method}
+    return data
+
+
+def test_wide_sleeve_solves_with_the_default_settings(sleeve_reference):
+    """The issue's case (13.8k → 27.6k dofs, 2 169 rows, 1 224 active): the default active set stopped at 100
+    iterations ("working set still growing, 600 rows, 3 added"); now 47 iterations (dual 51, was 373). Its
+    force agrees with the dual's to round-off and with the exact free-boundary solution to 1.0e-8 (the
+    midpoints hold the shell in the sleeve between the φ vertex columns)."""
+    sh, ref = sleeve_reference
+    res, summ = _solve2d(_wide_sleeve(1))
+    assert res.contact.solution.method == "active-set"
+    _, summ_dual = _solve2d(_wide_sleeve(1, "dual"))
+    f, f_dual = (s["contact"][0]["total_normal_force"] * 36.0 for s in (summ, summ_dual))
+    assert f == pytest.approx(f_dual, rel=1e-9)
+    assert f == pytest.approx(ref.total_normal_force, rel=1e-7)  # measured 1.0e-8
+    x = np.linspace(0.0, 1.0, 201)
+    w2d = res.solution.evaluate(x, np.full_like(x, math.radians(5.0)), ("w",))["w"]
+    w1d = solve(sh, np.linspace(0.0, 1.0, 801), "symmetry", "clamped", punches=[CylinderPunch(RS, (0.0, C_S))],
+                pw=5, pu=2).w(x)
+    assert np.max(np.abs(w2d - w1d)) <= 1e-3 * DELTA_S
+
+
+def test_active_set_hands_over_when_it_makes_no_progress():
+    """PDAS with every violated row joining (θ = 0, as with the dense Schur complement) wanders on the sleeve at
+    mesh.refine = 0 (605 rows) without revisiting a set: the rows on the wrong side hover between 36 and 100. The
+    active set hands over to the dual once they stop falling (measured: at iteration 29, then 11 dual iterations)
+    and gets the answer of the default settings; without the fallback it says it makes no progress."""
+    from shellcontact.analysis import discretize
+    from shellcontact.solvers import solve_active_set
+
+    qp = discretize(case_from_dict(_wide_sleeve(0))).qp()
+    sol = solve_active_set(qp, growth=0.0)
+    assert sol.info["fallback"] == "dual-mprgp" and any(rec.get("stalled") for rec in sol.history)
+    ref = solve_active_set(qp)
+    assert np.abs(sol.Lambda - ref.Lambda).max() <= 1e-8 * ref.Lambda.max()
+    with pytest.raises(shellcontact.SolverError, match="makes no progress"):
+        solve_active_set(qp, growth=0.0, fallback=False)

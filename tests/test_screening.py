@@ -17,7 +17,7 @@ from shellcontact.errors import InputError
 from shellcontact.linalg import available_backends, factorize
 from shellcontact.solvers import kkt_residuals, solve_active_set, solve_dual, solve_penalty
 from shellcontact.solvers.schur import Workspace
-from shellcontact.solvers.screening import initial_rows, solve_screened, solve_screened_curve
+from shellcontact.solvers.screening import initial_rows, predicted_rows, solve_screened, solve_screened_curve
 from shellcontact.solvers.substructure import factorize_contact
 
 HAS_PARDISO = "pardiso" in available_backends()
@@ -41,6 +41,16 @@ def test_initial_rows_per_group() -> None:
     assert initial_rows(G2, None, fraction=1 / 3, min_rows=1).tolist() == [0, 1, 2, 3]
     with pytest.raises(InputError, match="screening.fraction"):
         initial_rows(G, groups, fraction=0.0)
+
+
+def test_predicted_rows_per_group() -> None:
+    """The rows whose predicted gap is within margin × scale of touching, per punch, at least min_rows each."""
+    g = np.array([5.0, -1.0, 0.5, 3.0, 2.0, 7.0, 0.9, 1.2])
+    groups = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+    assert predicted_rows(g, 10.0, groups, margin=0.1, min_rows=1).tolist() == [1, 2, 6]
+    assert predicted_rows(g, 10.0, groups, margin=0.01, min_rows=2).tolist() == [1, 2, 6, 7]
+    assert predicted_rows(g, 10.0, None, margin=0.0, min_rows=1).tolist() == [1]
+    assert predicted_rows(g, 10.0, groups, margin=1.0, min_rows=1).size == 8
 
 
 @pytest.mark.parametrize("name", list(CASES))

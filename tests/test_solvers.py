@@ -28,7 +28,7 @@ from shellcontact.solvers import (
     solve_dual,
     solve_penalty,
 )
-from shellcontact.solvers.schur import MIN_BATCH, deepest_violations
+from shellcontact.solvers.schur import FLOOR_SHARE, MIN_BATCH, deepest_violations
 
 TOL = 1e-10
 
@@ -485,7 +485,35 @@ def test_working_set_grows_from_the_deepest_rows_and_at_most_doubles() -> None:
     assert deepest_violations(g, cand, 0.0, 200).sum() == 200
     assert deepest_violations(g, cand, 0.0, 1000).sum() == 299
     assert np.array_equal(np.flatnonzero(deepest_violations(g, cand, 0.0, 1000, limit=8)), np.arange(291, 299))
-    # θ = 0.9: only gaps ≤ 0.9·min g (min over candidates: g[298])
-    v = deepest_violations(g, cand, 0.9, 1000)
-    assert np.array_equal(v, cand & (g <= 0.9 * g[298]))
+    # θ = 0.8: the gaps ≤ 0.8·min g (min over candidates: g[298]; 120 rows) when they are at least
+    # max(MIN_BATCH, size/FLOOR_SHARE) ...
+    within = cand & (g <= 0.8 * g[298])
+    assert within.sum() == 120 and np.array_equal(deepest_violations(g, cand, 0.8, 200), within)
+    # ... else that many, the deepest (the floor: 1000/4 = 250 rows, not the 120 within θ)
+    v = deepest_violations(g, cand, 0.8, 1000)
+    assert v.sum() == 1000 // FLOOR_SHARE and np.array_equal(np.flatnonzero(v), np.arange(299 - 250, 299))
     assert not deepest_violations(-g, cand, 0.0, 0).any()  # nothing violated
+
+
+def test_working_set_growth_cannot_stall() -> None:
+    """However few violated rows lie within θ of the deepest, a step adds at least
+    min(violated, max(MIN_BATCH, size/FLOOR_SHARE)) of them and at most max(MIN_BATCH, size): from one row,
+    a zone of N violated rows is in the set after O(log N) steps. Before the floor, one row an iteration
+    joined here (one deep row, the rest 100× shallower), a uniform sleeve crept by 3 rows an iteration."""
+    rng = np.random.default_rng(3)
+    for size, m, theta in ((0, 50, 0.9), (0, 5000, 0.9), (100, 5000, 0.9), (4000, 9000, 0.9), (900, 3000, 0.0)):
+        g = rng.uniform(-1.0, 1.0, m)
+        g[rng.integers(m)] = -100.0  # one row far deeper than the rest: θ alone takes that row only
+        cand = np.ones(m, dtype=bool)
+        violated = int((g < 0).sum())
+        n = int(deepest_violations(g, cand, theta, size).sum())
+        assert min(violated, max(MIN_BATCH, size // FLOOR_SHARE)) <= n <= min(violated, max(MIN_BATCH, size))
+    # growing a set this way: N = 5000 violated rows of equal depth but one join in a few steps, not thousands
+    g = np.full(5000, -1.0)
+    g[0] = -100.0
+    inside = np.zeros(g.size, dtype=bool)
+    steps = 0
+    while (~inside & (g < 0)).any():
+        inside |= deepest_violations(g, ~inside, 0.9, int(inside.sum()))
+        steps += 1
+    assert steps <= 15  # 64, 128, 256, ... (doubling): 8 steps

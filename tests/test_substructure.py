@@ -188,3 +188,33 @@ def test_a_border_weighed_by_the_flexibility_gives_S() -> None:
     assert np.max(np.abs(got - ref)) <= 1e-9 * np.max(np.abs(ref))
     again = fac.schur.columns(cols[::-1])
     assert np.array_equal(again, got[:, ::-1])
+
+
+@pytest.mark.skipif(not HAS_PARDISO, reason="the Schur complement needs PARDISO")
+def test_a_coarser_level_picks_the_border_when_the_overlap_rule_would_border_too_many(monkeypatch) -> None:
+    """solver.nested = "auto": once the overlap's rule (a third of the candidate rows) would border more than
+    screening.NESTED_ROWS rows, the case is solved on mesh.refine − 1 first and the gaps of that solution on
+    this mesh pick the border (screening.predicted_rows). Here the limit is lowered so that a small panel takes
+    that path: its border, and the rows screening adds to it, are fewer than the overlap's rule's, and the answer
+    is the cold start's to the tolerance."""
+    from pathlib import Path
+
+    import shellcontact
+    from shellcontact.case import load_case
+    from shellcontact.solvers import screening
+
+    path = Path(__file__).resolve().parents[1] / "examples/paper_panel.toml"
+    sets = ["mesh.nx=16", "mesh.nphi=16", "mesh.refine=1", "solver.substructure=true"]
+    cold = shellcontact.solve(load_case(path, sets))
+    assert "nested_iterations" not in cold.info  # "auto" at the default limit: the overlap's rule
+    monkeypatch.setattr(screening, "NESTED_ROWS", 10)
+    warm = shellcontact.solve(load_case(path, sets))
+    assert "nested_iterations" in warm.info
+    rows_cold, rows_warm = (r.contact.solution.info["screening"] for r in (cold, warm))
+    # measured: 74 rows, then 4 penetrating rows joined (78), against the overlap rule's 209 of 625
+    assert rows_warm["rows"][-1] < 0.6 * rows_cold["rows"][0]
+    assert np.array_equal(warm.contact.active, cold.contact.active)
+    f_cold, f_warm = (r.summary()["contact"][0]["force_magnitude"] for r in (cold, warm))
+    assert f_warm == pytest.approx(f_cold, rel=1e-8)
+    forced_off = shellcontact.solve(load_case(path, [*sets, "solver.nested=false"]))
+    assert "nested_iterations" not in forced_off.info

@@ -43,7 +43,7 @@ from .rim import rim_line_force
 from .sizing import check_size, mesh_lines
 from .solvers import ContactQP, ContactSolution
 from .solvers.methods import METHODS
-from .solvers.screening import factorize_screened, solve_screened
+from .solvers.screening import coarse_start_pays, factorize_screened, solve_screened
 from .solvers.substructure import MIN_UNKNOWNS
 from .spaces import ShellSpace
 from .supports import Reduction, edge_constrained_dofs
@@ -526,12 +526,13 @@ class Factorizer:
         return factorize(Ar, backend)
 
     def contact(self, qp: ContactQP, groups: np.ndarray, initial_active: np.ndarray | None,
-                opts: SolverOptions) -> tuple[Factorization, np.ndarray | None]:
-        """The factorisation of the reduced stiffness and the screened rows (None: the whole QP directly):
-        A bordered by the rows predicted to touch (``solvers.screening``), for every method."""
+                opts: SolverOptions,
+                predicted_gap: np.ndarray | None = None) -> tuple[Factorization, np.ndarray | None]:
+        """The factorisation of the reduced stiffness and the screened rows (None: the whole QP directly): A bordered
+        by the rows predicted to touch (``solvers.screening``; by a coarser level's ``predicted_gap``), every method."""
         if opts.substructure is not False:
             return factorize_screened(qp, groups, initial_active, opts.backend,
-                                      0 if opts.substructure is True else MIN_UNKNOWNS)
+                                      0 if opts.substructure is True else MIN_UNKNOWNS, predicted_gap)
         return factorize(qp.A, opts.backend), None
 
 
@@ -584,7 +585,9 @@ def prepare_contact(case: Case, d: Discretization, opts: SolverOptions, timer: T
     space, red, op = d.space, d.reduction, d.operator
     info: dict[str, Any] = {"unknowns": int(d.Ar.shape[0])}
     start = warm_start
-    if start is None and opts.nested and case.mesh.refine > 0:
+    # "auto": when the overlap's rule would border too many rows; a coarser level predicts them better
+    nested = opts.nested if opts.nested != "auto" else op is not None and coarse_start_pays(op.B.shape[0])
+    if start is None and nested and case.mesh.refine > 0:
         coarse = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, refine=case.mesh.refine - 1))
         with timer.stage("nested"):
             start = solve(coarse, method=opts.method, backend=opts.backend, max_memory=max_memory)
@@ -595,14 +598,16 @@ def prepare_contact(case: Case, d: Discretization, opts: SolverOptions, timer: T
         initial_U_r = U0[red.free]
         if _same_rows(start, op):  # e.g. the previous step of a sweep: its active set is the best guess
             initial_active = start.contact.active
+    start = None  # a coarser level's Result (its stiffness, factors, fields) is not kept during this solve
     with timer.stage("assembly"):
         qp = d.qp()
     exact = METHODS[opts.method].exact
+    predicted = None if initial_U_r is None or warm_start is not None else qp.gap(initial_U_r)
     if initial_active is None and initial_U_r is not None and exact:
-        initial_active = qp.gap(initial_U_r) <= 0.0
+        initial_active = (qp.gap(initial_U_r) if predicted is None else predicted) <= 0.0
     # every method: the dense Schur complement of the rows predicted to touch (solvers.screening)
     with timer.stage("factorization"):
-        fac, screen = factorizer.contact(qp, op.punch, initial_active, opts)
+        fac, screen = factorizer.contact(qp, op.punch, initial_active, opts, predicted_gap=predicted)
     info["backend"] = fac.backend
     eps = opts.penalty if opts.penalty is not None else default_penalty(case)
     info["tolerance"] = opts.tolerance

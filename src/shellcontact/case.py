@@ -153,8 +153,11 @@ SOLVER = Table("solver", (
         "`penalty`", unit="length/pressure", lo=0.0, open=("lo",), default=()),
     Key("max_iterations", "integer", "iteration limit; the solver then fails with its residuals", lo=1, default=None,
         default_doc="active-set 100, dual 500, penalty 50 per ε"),
-    Key("nested", "bool", "solve on `mesh.refine − 1` first (recursively) and start from that solution",
-        default=False),
+    Key("nested", "choice", "solve on `mesh.refine − 1` first (recursively) and start from that solution; its "
+        "gaps on this mesh pick the rows of the bordered factorisation. `\"auto\"`: when the overlap's rule would "
+        "border more than 4 000 rows (12 000 candidate rows: the demo case at 1.12M dofs) "
+        "([solvers.md](solvers.md#nested-iteration-and-warm-starts))",
+        choices=("auto", True, False), default=SolverOptions.nested),
     Key("backend", "choice", "sparse factorisation, shared by all solves (`shellcontact info` lists those "
         "installed)", choices=("auto", *BACKENDS), default=SolverOptions.backend),
     Key("extended_precision", "bool", "refine the final solves U = A⁻¹(F + BᵀΛ) with residuals in extended "

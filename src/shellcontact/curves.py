@@ -144,9 +144,11 @@ class SharedFactorizer(Factorizer):
         return self.plain
 
     def contact(self, qp: ContactQP, groups: np.ndarray, initial_active: np.ndarray | None,
-                opts: SolverOptions) -> tuple[Factorization, np.ndarray | None]:
+                opts: SolverOptions,
+                predicted_gap: np.ndarray | None = None) -> tuple[Factorization, np.ndarray | None]:
         """As ``Factorizer.contact`` for a cold start (``screening.factorize_screened`` without a warm
-        active set, so that the border does not follow the start), reused when the border is equal."""
+        active set or a predicted gap, so that the border does not follow the start), reused when the border
+        is equal."""
         min_unknowns = 0 if opts.substructure is True else MIN_UNKNOWNS
         if opts.substructure is False:
             return self.linear(qp.A, opts.backend), None

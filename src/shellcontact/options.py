@@ -18,7 +18,7 @@ class SolverOptions:
     continuation: tuple[float, ...] = ()
     max_iterations: int | None = None
     backend: str = "auto"
-    nested: bool = False
+    nested: str | bool = "auto"  # "auto": when the G rule would border > screening.NESTED_ROWS rows
     # measured, benchmarks/contact_points.py (docs/solvers.md#contact-points): far more accurate per second
     # than the paper's vertex constraints; "vertices" stays selectable
     contact_points: str = "vertices+midpoints"

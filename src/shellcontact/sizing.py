@@ -19,7 +19,8 @@ mesh; c per backend in ``FILL``), the contact rows are the vertices (and with
 * assembly: the stiffness and the element matrices being scattered (``ASSEMBLY_BYTES`` per triangle);
 * factorisation and solve: A, its reduced copy, |A|, the equilibrated triangle the backend reads, the
   factors, and the contact blocks (columns of S = B A⁻¹ Bᵀ, m × m at most; the substructured
-  method's T and its Cholesky factor, 2 m_s² with m_s ≤ ``substructure.MAX_ROWS``).
+  method's T and its Cholesky factor, 2 m_s² with m_s ≤ ``substructure.MAX_ROWS``, and its columns of S
+  on the screened rows, m_s² at most).
 
 The accuracy against measured peak resident sets is in docs/solvers.md ("Memory estimate").
 """
@@ -228,7 +229,8 @@ def _bytes(case, nv, ne, nf, dofs, nnz, rows, method: str, backend: str) -> Size
         "stiffness": matrix,
         "reduced stiffness, |A| and the backend's copy": (1.0 + (0.7 if rows else 0.0) + 0.5) * matrix,
         "factor": FACTOR_BYTES * factor_nnz * (BORDERED_FILL if substructured else 1.0),
-        "contact blocks": 8.0 * rows * rows + 16.0 * schur_rows * schur_rows,
+        # the columns of S (m × m at most; screened: those of the bordered rows), then T and its Cholesky factor
+        "contact blocks": 8.0 * (schur_rows if substructured else rows) ** 2 + 16.0 * schur_rows * schur_rows,
         "vectors": 8.0 * 30 * dofs,
     }
     parts["assembly stage"] = BASE_BYTES + matrix + ASSEMBLY_BYTES * ne

@@ -43,24 +43,39 @@ def default_growth(ws: Workspace) -> float:
 
 #: the fewest rows a working set may gain in one step; above it, at most as many as it holds (doubling)
 MIN_BATCH = 64
+#: and at least 1/FLOOR_SHARE of the rows it holds (when that many are violated), however few lie within θ
+#: of the deepest: a uniform overlap (a sleeve on a pipe) leaves only a few rows near the deepest at every
+#: step, and the set then crept by 3 rows an iteration (active set: no convergence in 100 iterations)
+FLOOR_SHARE = 4
 
 
 def deepest_violations(g: np.ndarray, candidates: np.ndarray, growth: float, size: int,
                        limit: int | None = None) -> np.ndarray:
-    """The rows that join a working set of ``size`` rows: among ``candidates`` (bool) with g < 0, those
-    with g ≤ θ·min g (θ = ``growth``), and of those at most max(``MIN_BATCH``, size) (and at most ``limit``,
-    when given), the deepest. The
-    cap lets the set at most double per step: when a seed face leaves a whole band of rows penetrating
+    """The rows that join a working set of ``size`` rows: among ``candidates`` (bool) with g < 0, the deepest
+    k, where k is the number of them with g ≤ θ·min g (θ = ``growth``), raised to at least
+    max(``MIN_BATCH``, size/``FLOOR_SHARE``) and cut to at most max(``MIN_BATCH``, size) (and to ``limit``,
+    when given), and never more than are violated.
+
+    The cap lets the set at most double per step: when a seed face leaves a whole band of rows penetrating
     (a floating pipe held at two points), the band would otherwise join at once, each row a column of S
-    (4260 instead of 844 columns for the same 249 active rows, ring-stiffness example at 213k unknowns)."""
+    (4260 instead of 844 columns for the same 249 active rows, ring-stiffness example at 213k unknowns).
+    The floor guarantees progress: while rows are violated, the set grows by at least a quarter per step
+    (or by all violated rows, or by ``MIN_BATCH``), so a zone of N active rows fills in O(log N) steps and
+    not in N / (rows within θ of the deepest) steps."""
     v = candidates & (g < 0)
-    if growth > 0 and v.any():
-        v &= g <= growth * g[v].min()
+    n_violated = int(v.sum())
+    if n_violated == 0:
+        return v
+    count = n_violated
+    if growth > 0:
+        count = int((v & (g <= growth * g[v].min())).sum())
+        count = max(count, MIN_BATCH, size // FLOOR_SHARE)
     cap = max(MIN_BATCH, size) if limit is None else min(max(MIN_BATCH, size), limit)
-    if v.sum() > cap:
+    count = min(count, cap, n_violated)
+    if count < n_violated:
         cand = np.flatnonzero(v)
         v = np.zeros_like(v)
-        v[cand[np.argsort(g[cand], kind="stable")[:cap]]] = True
+        v[cand[np.argsort(g[cand], kind="stable")[:count]]] = True
     return v
 
 
