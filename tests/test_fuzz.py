@@ -41,7 +41,8 @@ def finite_numbers(value, where: str = "summary") -> list[str]:
 def check_case(directory: Path, text: str, args: list[str]) -> None:
     case, out = directory / "case.toml", directory / "out"
     case.write_text(text, encoding="utf-8")
-    code, stderr = run_cli(["run", str(case), "-o", str(out), "--force", "--no-figures", "--no-report", *args])
+    code, stderr = run_cli(["run", str(case), "-o", str(out), "--force", "--no-figures", "--no-report",
+                            "--allow-module", "fuzz_cases", *args])
     report = f"exit {code}\n--- case.toml\n{text}--- args {args}\n--- stderr\n{stderr}"
     assert code in ALLOWED_EXITS, report
     assert "Traceback" not in stderr, report

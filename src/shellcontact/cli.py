@@ -114,9 +114,11 @@ def _sets(args: argparse.Namespace) -> list[str]:
 
 def _load(args: argparse.Namespace):
     from .case import load_case
+    from .user_functions import consent_for
 
     sets = _sets(args)
-    case = load_case(args.case, sets)
+    consent_for(args.allow_code, args.allow_module, args.case, "--allow-module")  # names checked, by the flag
+    case = load_case(args.case, sets, allow_code=args.allow_code, allow_modules=args.allow_module)
     log.debug("case %s loaded with overrides %s", args.case, sets)
     return case, sets
 
@@ -253,8 +255,11 @@ def _workers(args: argparse.Namespace, default: int | None) -> int | None:
     if args.serial:
         return 0
     if args.workers is not None:
-        if args.workers < 0:
-            raise InputError("--workers", f"must be >= 0 (0: in this process), got {args.workers}")
+        from .engine import max_workers
+
+        if not 0 <= args.workers <= max_workers():
+            raise InputError("--workers", f"must be >= 0 (0: in this process) and at most {max_workers()} (four "
+                             f"processes per core), got {args.workers}")
         return args.workers
     return default
 
@@ -263,8 +268,11 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
     from .studies import parse_values, sweep, sweep_table
 
     values = parse_values(args.values, args.max_memory)
-    if args.jobs < 1:
-        raise InputError("--jobs", f"must be >= 1, got {args.jobs}")
+    from .engine import max_workers
+
+    if not 1 <= args.jobs <= max_workers():
+        raise InputError("--jobs", f"must be >= 1 and at most {max_workers()} (four processes per core), "
+                         f"got {args.jobs}")
     workers = _workers(args, 0 if args.jobs == 1 else args.jobs)
     case, _ = _load(args)
     out = _output(args, "-sweep")
@@ -386,6 +394,10 @@ def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
         "(e.g. --set mesh.refine=2 --set punch.0.indentation=2e-3); repeatable",
     )
     _output_args(p)
+    p.add_argument("--allow-code", action="store_true", help="let the case's \"module:function\" values import "
+                   "Python modules from the case file's own directory (docs/case-file.md, trust model)")
+    p.add_argument("--allow-module", action="append", default=[], metavar="MODULE",
+                   help="let them import MODULE from the Python path too; repeatable")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     p.add_argument("--max-memory", metavar="SIZE", help="memory a solve may need, e.g. 8G or 512M (default: the "
                    "memory available); a case estimated to need more is refused before anything is built")

@@ -10,6 +10,12 @@ task k in messages):
   ``LocalCluster`` of ``workers`` processes (None: one per core) with one thread each and one BLAS thread
   (Dask's ``distributed.nanny.pre-spawn-environ``).
 
+Network exposure: everything the embedded cluster opens (scheduler, workers, nannies, dashboard) listens on
+127.0.0.1 only. An external scheduler is reached at ``tcp://`` or, with Dask's TLS settings
+(``distributed.comm.tls.*``, e.g. ``DASK_DISTRIBUTED__COMM__TLS__CA_FILE``), ``tls://``; Dask's own security
+configuration is used as it is. Connecting, and the first answer, time out after ``CONNECT_TIMEOUT``; a
+scheduler without a worker is waited for ``WORKER_TIMEOUT``, then refused with what to start.
+
 A task lost with a killed worker is run again on another (Dask's ``distributed.scheduler.allowed-failures``).
 On an error or an interruption the tasks are cancelled and an embedded cluster's workers are killed at once
 (a graceful close would wait for the running tasks). Dask is imported only here, when an engine is opened.
@@ -19,8 +25,10 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import secrets
 import signal
+import threading
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -31,14 +39,52 @@ ONE_THREAD = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS"
 log = logging.getLogger("shellcontact")
 
 Done = Callable[[int, Any], None]
+#: seconds: to connect to an external scheduler and hear its first answer; to wait for its first worker
+CONNECT_TIMEOUT, WORKER_TIMEOUT = 20.0, 60.0
+LOOPBACK = "127.0.0.1"
+_ADDRESS = re.compile(r"(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)"
+                      r"(?::(?P<port>[0-9]{1,5}))?")
+
+
+def max_workers() -> int:
+    """The most worker processes of an embedded cluster (or sweep jobs): four per core."""
+    return 4 * (os.cpu_count() or 1)
+
+
+def tls_configured() -> bool:
+    """Whether Dask's configuration names a CA file and a client certificate (``distributed.comm.tls``)."""
+    import dask
+
+    return bool(dask.config.get("distributed.comm.tls.ca-file", None)
+                and dask.config.get("distributed.comm.tls.client.cert", None))
+
+
+def check_address(address: str, where: str) -> str:
+    """``tcp://host:port``, or ``tls://host:port`` with Dask's TLS settings; anything else is an InputError."""
+    usage = "a Dask scheduler address such as tcp://host:8786"
+    m = _ADDRESS.fullmatch(address)
+    if m is None:
+        what = "it has spaces in it" if address != "".join(address.split()) else f"expected {usage}"
+        raise InputError(where, f"{what}, got {address!r}")
+    scheme = m["scheme"].lower()
+    if scheme not in ("tcp", "tls"):
+        raise InputError(where, f"the scheme {m['scheme']}:// is not supported: use tcp://host:port, or "
+                         f"tls://host:port with Dask's TLS settings (docs/studies.md), got {address!r}")
+    if m["port"] is None or not 0 < int(m["port"]) < 65536:
+        raise InputError(where, f"needs a port from 1 to 65535 (the scheduler's, usually 8786), e.g. "
+                         f"{scheme}://{m['host']}:8786, got {address!r}")
+    if scheme == "tls" and not tls_configured():
+        raise InputError(where, "tls:// needs Dask's TLS settings: a CA file and a client certificate and key, e.g. "
+                         "DASK_DISTRIBUTED__COMM__TLS__CA_FILE, DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT and "
+                         "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY (docs/studies.md)")
+    return address
 
 
 def scheduler_address(scheduler: str | None) -> str | None:
-    """``--scheduler``, else ``SHELLCONTACT_SCHEDULER``, else None (an embedded cluster)."""
+    """``--scheduler``, else ``SHELLCONTACT_SCHEDULER``, else None (an embedded cluster); checked."""
     address = scheduler if scheduler is not None else os.environ.get(SCHEDULER_ENV) or None
-    if address is not None and "://" not in address:
-        where = "--scheduler" if scheduler is not None else SCHEDULER_ENV
-        raise InputError(where, f"expected a scheduler address such as tcp://host:8786, got {address!r}")
+    if address is not None:
+        check_address(address, "--scheduler" if scheduler is not None else SCHEDULER_ENV)
     return address
 
 
@@ -80,19 +126,29 @@ class Dask:
             environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **ONE_THREAD}
             with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
                 # silence_logs: a failed task is raised here (its own error), not also logged by its worker
+                # loopback only, the dashboard too (":0" alone would listen on every interface); a free port:
+                # several studies at once
                 self.cluster = distributed.LocalCluster(
                     n_workers=n, threads_per_worker=1, processes=True, silence_logs=logging.CRITICAL,
-                    dashboard_address=":0")  # a free port: several studies at once
+                    host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0", worker_dashboard_address=None)
             self.client = distributed.Client(self.cluster)
             self.description = f"an embedded Dask cluster of {n} worker process{'es' * (n != 1)}"
         else:
-            try:
-                self.client = distributed.Client(address, timeout="20s")
-            except (OSError, TimeoutError) as exc:
-                raise InputError(option, f"cannot reach the Dask scheduler at {address}: {exc}") from None
+            self.client = _connect(address, option)
             self.description = f"the Dask cluster at {address}"
         info = self.client.scheduler_info()
-        self.workers = max(1, len(info.get("workers", {})))
+        self.workers = len(info.get("workers", {}))
+        if address is not None and self.workers == 0:
+            log.warning("the Dask scheduler at %s has no worker yet; waiting up to %g s for one", address,
+                        WORKER_TIMEOUT)
+            try:
+                self.client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
+            except (TimeoutError, OSError):
+                raise InputError(option, f"the Dask scheduler at {address} has no worker (waited {WORKER_TIMEOUT:g} "
+                                 f"s): start one with `dask worker {address}`, or drop {option} to use an "
+                                 "embedded cluster") from None
+            self.workers = len(self.client.scheduler_info().get("workers", {}))
+        self.workers = max(1, self.workers)
         if address is not None:
             self.description += f" ({self.workers} worker{'s' * (self.workers != 1)} now)"
         self.dashboard = None
@@ -142,6 +198,37 @@ class Dask:
                     part.close(timeout=timeout)
                 except Exception as exc:  # noqa: BLE001 — closing after the work is done or abandoned
                     log.debug("closing %s: %s", type(part).__name__, exc)
+
+
+def _connect(address: str, option: str) -> Any:
+    """A Dask client of the scheduler at ``address`` within ``CONNECT_TIMEOUT`` seconds, however it answers:
+    a port that accepts and never answers, or answers something else (a web server's bytes), is refused."""
+    import distributed
+
+    box: dict[str, Any] = {}
+
+    def connect() -> None:
+        try:
+            box["client"] = distributed.Client(address, timeout=f"{CONNECT_TIMEOUT}s")
+        except BaseException as exc:  # noqa: BLE001 — handed to the waiting thread
+            box["error"] = exc
+
+    worker = threading.Thread(target=connect, name="shellcontact-connect", daemon=True)
+    worker.start()
+    worker.join(CONNECT_TIMEOUT + 5)  # Dask's own timeout does not cover every handshake
+    if worker.is_alive():
+        raise InputError(option, f"the Dask scheduler at {address} did not answer within {CONNECT_TIMEOUT:g} s; "
+                         "check the address and port (the scheduler's, usually 8786, not the dashboard's)")
+    exc = box.get("error")
+    if isinstance(exc, (OSError, TimeoutError)):
+        raise InputError(option, f"cannot reach the Dask scheduler at {address}: {exc}") from None
+    if isinstance(exc, (MemoryError, ValueError, TypeError, EOFError)) or (exc is not None and
+                                                                          type(exc).__module__.startswith("distributed")):
+        raise InputError(option, f"{address} did not answer as a Dask scheduler ({type(exc).__name__}); check the "
+                         "address and port (the scheduler's, usually 8786, not the dashboard's)") from None
+    if exc is not None:
+        raise exc
+    return box["client"]
 
 
 def _has_dashboard() -> bool:

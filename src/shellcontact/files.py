@@ -95,8 +95,9 @@ def write_json(path: str | Path, data: Any) -> None:
 
 
 def check_output_dir(path: str | Path, force: bool, option: str = "--output") -> Path:
-    """Refuse an existing non-empty directory unless ``force``; a file in the way is an error."""
-    path = Path(path)
+    """Refuse an existing non-empty directory unless ``force``; a file in the way is an error. A leading
+    ``~`` is the home directory, here as where the files are written (``transaction.resolve_target``)."""
+    path = Path(path).expanduser()
     if path.exists() and not path.is_dir():
         raise InputError(option, f"{str(path)!r} exists and is not a directory")
     if path.is_dir() and any(path.iterdir()) and not force:
