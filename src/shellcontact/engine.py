@@ -23,13 +23,14 @@ On an error or an interruption the tasks are cancelled and an embedded cluster's
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import re
 import secrets
 import signal
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from .errors import InputError
@@ -107,8 +108,10 @@ class Serial:
 class Dask:
     """A Dask client on an existing scheduler or on an embedded ``LocalCluster``."""
 
-    def __init__(self, workers: int | None, address: str | None, option: str = "--scheduler") -> None:
+    def __init__(self, workers: int | None, address: str | None, option: str = "--scheduler",
+                 notice: Callable[[str], None] | None = None) -> None:
         self.cluster = self.client = None
+        self.notice = notice or log.info
         try:
             self._start(workers, address, option)
         except BaseException:  # e.g. Ctrl-C while the workers start: none is left behind
@@ -128,9 +131,9 @@ class Dask:
                 # silence_logs: a failed task is raised here (its own error), not also logged by its worker
                 # loopback only, the dashboard too (":0" alone would listen on every interface); a free port:
                 # several studies at once
-                self.cluster = distributed.LocalCluster(
+                self.cluster = _start_quietly(lambda: distributed.LocalCluster(
                     n_workers=n, threads_per_worker=1, processes=True, silence_logs=logging.CRITICAL,
-                    host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0", worker_dashboard_address=None)
+                    host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0", worker_dashboard_address=None))
             self.client = distributed.Client(self.cluster)
             self.description = f"an embedded Dask cluster of {n} worker process{'es' * (n != 1)}"
         else:
@@ -139,8 +142,8 @@ class Dask:
         info = self.client.scheduler_info()
         self.workers = len(info.get("workers", {}))
         if address is not None and self.workers == 0:
-            log.warning("the Dask scheduler at %s has no worker yet; waiting up to %g s for one", address,
-                        WORKER_TIMEOUT)
+            self.notice(f"the Dask scheduler at {address} has no worker yet; waiting up to {WORKER_TIMEOUT:g} s "
+                        "for one")
             try:
                 self.client.wait_for_workers(1, timeout=WORKER_TIMEOUT)
             except (TimeoutError, OSError):
@@ -183,6 +186,14 @@ class Dask:
             raise
 
     def close(self, abort: bool = False) -> None:
+        with _silenced(abort):
+            self._close(abort)
+        if abort and self.cluster is not None:  # Dask's exit hook must not close it again (and print why not)
+            from distributed.deploy.spec import SpecCluster
+
+            SpecCluster._instances.discard(self.cluster)
+
+    def _close(self, abort: bool) -> None:
         if abort and self.cluster is not None:
             for nanny in list(self.cluster.workers.values()):  # kill the running tasks now
                 pid = getattr(getattr(nanny, "process", None), "pid", None)
@@ -198,6 +209,104 @@ class Dask:
                     part.close(timeout=timeout)
                 except Exception as exc:  # noqa: BLE001 — closing after the work is done or abandoned
                     log.debug("closing %s: %s", type(part).__name__, exc)
+
+
+#: the loggers that report the tasks an abort leaves unfinished
+NOISY = ("distributed", "asyncio", "tornado")
+
+
+@contextlib.contextmanager
+def _silenced(silence: bool = True) -> Iterator[None]:
+    """Dask's, asyncio's and tornado's logs off (an abort's unfinished tasks are not news)."""
+    if not silence:
+        yield
+        return
+    loggers = [logging.getLogger(name) for name in NOISY]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
+
+
+def silence_dask() -> None:
+    """Dask's logs off for the rest of the process (the command line, ending after an interruption)."""
+    for name in NOISY:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
+@contextlib.contextmanager
+def _workers_ignore_sigint() -> Iterator[None]:
+    """Worker processes spawned inside start with SIGINT ignored: Python is launched through ``/bin/sh`` after
+    ``trap '' INT`` (an ignored signal stays ignored across exec, and Python then installs no KeyboardInterrupt
+    handler). A terminal's Ctrl-C reaches the whole process group; this process ends the workers itself."""
+    import multiprocessing.spawn
+    import shlex
+    import tempfile
+
+    previous = multiprocessing.spawn.get_executable()
+    if not os.path.exists("/bin/sh") or previous is None:
+        yield
+        return
+    directory = tempfile.mkdtemp(prefix="shellcontact-launch-")
+    launcher = os.path.join(directory, "python")
+    try:
+        with open(launcher, "w") as fh:
+            fh.write(f"#!/bin/sh\ntrap '' INT\nexec {shlex.quote(os.fsdecode(previous))} \"$@\"\n")
+        os.chmod(launcher, 0o700)
+        multiprocessing.spawn.set_executable(launcher)
+        yield
+    finally:
+        multiprocessing.spawn.set_executable(previous)
+        with contextlib.suppress(OSError):
+            os.unlink(launcher)
+            os.rmdir(directory)
+
+
+def _start_quietly(start: Callable[[], Any]) -> Any:
+    """``start()`` (a LocalCluster) in a thread, its workers ignoring SIGINT, while this thread waits: a Ctrl-C
+    then kills the workers started so far and abandons the start, without a traceback from Dask or from a
+    worker; the abandoned clusters are removed from Dask's exit hook."""
+    import psutil
+    from distributed.deploy.spec import SpecCluster
+
+    box: dict[str, Any] = {}
+    before = set(SpecCluster._instances)
+    children = {p.pid for p in psutil.Process().children(recursive=True)}
+
+    def run() -> None:
+        try:
+            box["value"] = start()
+        except BaseException as exc:  # noqa: BLE001 — handed to the waiting thread
+            box["error"] = exc
+
+    thread = threading.Thread(target=run, name="shellcontact-cluster", daemon=True)
+    try:
+        with _workers_ignore_sigint():
+            thread.start()
+            while thread.is_alive():
+                thread.join(0.05)
+    except BaseException:
+        silence_dask()
+
+        def kill_new_children() -> None:
+            for child in psutil.Process().children(recursive=True):
+                with contextlib.suppress(psutil.Error):
+                    if child.pid not in children and "resource_tracker" not in " ".join(child.cmdline()):
+                        child.kill()
+
+        kill_new_children()
+        thread.join(10)
+        kill_new_children()  # those spawned while the start was failing
+        for cluster in set(SpecCluster._instances) - before:
+            SpecCluster._instances.discard(cluster)
+        raise
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
 
 
 def _connect(address: str, option: str) -> Any:
@@ -242,17 +351,19 @@ class open_engine:  # noqa: N801 — used as a context manager, like open()
     """``with open_engine(workers, address) as engine: engine.run(...)``; an exception aborts the engine.
     ``option``: what gave the address (named when the scheduler cannot be reached)."""
 
-    def __init__(self, workers: int | None, address: str | None, option: str = "--scheduler") -> None:
+    def __init__(self, workers: int | None, address: str | None, option: str = "--scheduler",
+                 notice: Callable[[str], None] | None = None) -> None:
         self.workers = workers
         self.address = address
         self.option = option
+        self.notice = notice
         self.engine: Serial | Dask | None = None
 
     def __enter__(self) -> Serial | Dask:
         if self.workers == 0 and self.address is None:
             self.engine = Serial()
         else:
-            self.engine = Dask(self.workers, self.address, self.option)
+            self.engine = Dask(self.workers, self.address, self.option, self.notice)
         return self.engine
 
     def __exit__(self, kind, exc, tb) -> None:

@@ -38,7 +38,10 @@ def _atomic(path: str | Path, write: Callable[[int, str], None]) -> None:
     renamed into place; on any failure it is removed, and an OSError names ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:  # a full disk: name the file being written, not its temporary
+        raise _naming(exc, path) from exc
     try:
         write(fd, tmp)
         os.chmod(tmp, _MODE)

@@ -298,7 +298,8 @@ def _run_points(
         workers = 0  # one point: no cluster to start
     elif address is None and workers is None:
         workers = min(os.cpu_count() or 1, len(todo))
-    with open_engine(workers, address, "--scheduler" if scheduler is not None else SCHEDULER_ENV) as engine:
+    with open_engine(workers, address, "--scheduler" if scheduler is not None else SCHEDULER_ENV,
+                     notice=announce) as engine:
         if announce and workers != 0:
             dashboard = f"; dashboard {engine.dashboard}" if engine.dashboard else ""
             announce(f"solving {len(todo)} points on {engine.description}{dashboard}")
