@@ -397,7 +397,9 @@ def _in_directory(
             names = write(res, stage.path)
             stage.commit(final if in_place else entries)
         except BaseException as exc:
-            if stage is not None:
+            if not in_place and stage is not None and any((stage.path / RECORDS).glob("step-*.json")):
+                pass  # finished points replacing another result: kept for the next run to take over
+            elif stage is not None:
                 stage.discard()
                 if isinstance(exc, OSError):
                     name_in_target(exc, stage.path, target)
