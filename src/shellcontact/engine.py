@@ -202,7 +202,7 @@ class Dask:
                         os.kill(pid, signal.SIGKILL)
                     except ProcessLookupError:
                         pass
-        timeout = 2 if abort else 20
+        timeout = 0.5 if abort else 20  # aborted: the workers are dead already; nothing to wait for
         for part in (self.client, self.cluster):
             if part is not None:
                 try:
