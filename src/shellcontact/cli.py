@@ -62,9 +62,11 @@ def _load(args: argparse.Namespace):
 
 def _output(args: argparse.Namespace, suffix: str) -> Path:
     """-o DIR, or <case name><suffix> beside the working directory."""
+    from .files import expand_user
+
     if args.output is None:
         return Path(f"{Path(args.case).stem}{suffix}")
-    return Path(args.output)
+    return expand_user(args.output)  # "--output=~/x": bash leaves the ~; expanded once, here
 
 
 def _vec(v) -> str:

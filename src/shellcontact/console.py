@@ -70,7 +70,7 @@ def setup_logging(verbose: int, quiet: bool, log_file: str | None) -> None:
     log.addHandler(console)
     if log_file:
         try:
-            fh = LogFile(os.path.expanduser(log_file))
+            fh = LogFile(os.path.expanduser(log_file))  # "--log=~/x": bash leaves the ~
             fh.stream.write(f"shellcontact log, pid {os.getpid()}\n")  # a full disk is found now, not later
             fh.stream.flush()
         except OSError as exc:

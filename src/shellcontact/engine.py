@@ -67,7 +67,7 @@ def check_address(address: str, where: str) -> str:
     if m is None:
         what = "it has spaces in it" if address != "".join(address.split()) else f"expected {usage}"
         raise InputError(where, f"{what}, got {address!r}")
-    scheme = m["scheme"].lower()
+    scheme = m["scheme"]  # as Dask spells it: lower case
     if scheme not in ("tcp", "tls"):
         raise InputError(where, f"the scheme {m['scheme']}:// is not supported: use tcp://host:port, or "
                          f"tls://host:port with Dask's TLS settings (docs/studies.md), got {address!r}")

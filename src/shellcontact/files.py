@@ -97,10 +97,16 @@ def write_json(path: str | Path, data: Any) -> None:
     atomic_write_bytes(path, json_text(data).encode())
 
 
+def expand_user(path: str | os.PathLike) -> Path:
+    """The output path as written, but a leading ``~`` of a string is the home directory (the shell leaves it
+    in ``--output=~/x``); a ``Path`` object is taken as written, as pathlib does (``Path("./~")`` is ``~``).
+    Expanded once, where a path enters, then checked and written as the same path."""
+    return Path(os.path.expanduser(path)) if isinstance(path, str) else Path(path)
+
+
 def check_output_dir(path: str | Path, force: bool, option: str = "--output") -> Path:
-    """Refuse an existing non-empty directory unless ``force``; a file in the way is an error. A leading
-    ``~`` is the home directory, here as where the files are written (``transaction.resolve_target``)."""
-    path = Path(path).expanduser()
+    """Refuse an existing non-empty directory unless ``force``; a file in the way is an error."""
+    path = Path(path)
     if path.exists() and not path.is_dir():
         raise InputError(option, f"{str(path)!r} exists and is not a directory")
     if path.is_dir() and any(path.iterdir()) and not force:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import random
 import re
 from collections.abc import Sequence
@@ -238,7 +239,7 @@ def read_points(path: str | Path) -> list[Point]:
     an empty cell leaves the case's value). UTF-8, at most ``MAX_POINTS_BYTES``, cells of at most ``MAX_CELL``."""
     where = "--points"
     try:
-        with open(Path(path).expanduser(), "rb") as fh:
+        with open(os.path.expanduser(path) if isinstance(path, str) else path, "rb") as fh:
             data = fh.read(MAX_POINTS_BYTES + 1)  # bounded: --points /dev/zero is refused, not read forever
     except OSError as exc:
         raise InputError(where, f"cannot read {str(path)!r}: {exc.strerror}") from None

@@ -29,7 +29,14 @@ from typing import Any
 from .arguments import expect_callable, expect_integer, expect_numbers, expect_path
 from .case import Case, case_from_dict, expect_case, key_kind
 from .errors import InputError
-from .files import atomic_write_bytes, atomic_write_text, atomic_write_with, check_output_dir, write_json
+from .files import (
+    atomic_write_bytes,
+    atomic_write_text,
+    atomic_write_with,
+    check_output_dir,
+    expand_user,
+    write_json,
+)
 from .overrides import apply_overrides, split_path
 from .sampling import (
     Point,
@@ -127,7 +134,7 @@ PROBE_COMPONENTS = ("u", "v", "w")
 def _fingerprint(raw: dict[str, Any], source: Any) -> str:
     """The identity of a case: its contents and its file's real path (``case.toml``, ``./case.toml`` and
     ``/abs/case.toml`` are one case, so a study resumes whichever way it is spelled)."""
-    where = os.path.realpath(os.path.expanduser(str(source))) if source is not None else None
+    where = os.path.realpath(source) if source is not None else None
     text = json.dumps({"case": raw, "source": str(where)}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 
@@ -368,7 +375,6 @@ def _in_directory(
     """
     from .transaction import DirectoryLock, Staging, name_in_target, remove_stale, stale_stagings
 
-    target = target.expanduser()  # one path, checked and written
     resume = not overwrite and _same_study(target, manifest_name, manifest, identity)
     if not resume:
         check_output_dir(target, overwrite)
@@ -553,7 +559,7 @@ def sweep(
 
     if output_dir is None:
         return solve(None)
-    target = Path(output_dir)
+    target = expand_user(output_dir)  # one path, checked and written
     manifest = {"case_file": source, "case": _fingerprint(case.raw, source), "param": param, "values": vals}
     res, names = _in_directory(
         target, manifest_name="sweep.json", manifest=manifest, identity=("case", "param", "values"),
@@ -691,7 +697,7 @@ def study(
 
     if output_dir is None:
         return solve(None)
-    target = Path(output_dir)
+    target = expand_user(output_dir)  # one path, checked and written
     manifest = {"case_file": source, "case": _fingerprint(case.raw, source), "sampling": sampling,
                 "probe_components": list(components), "keys": keys, "points": points}
     res, names = _in_directory(
@@ -865,7 +871,7 @@ def convergence(
 
     with replace_dir(output_dir, overwrite=overwrite, owned=CONVERGENCE_FILES, wait=wait) as stage:
         res = _convergence(case, levels, stage, progress, figures, max_memory)
-    res.files = {name: Path(output_dir) / name for name in res.files}
+    res.files = {name: expand_user(output_dir) / name for name in res.files}
     return res
 
 

@@ -31,7 +31,7 @@ from collections.abc import Collection, Iterator
 from pathlib import Path
 
 from .errors import InputError
-from .files import check_output_dir
+from .files import check_output_dir, expand_user
 
 log = logging.getLogger("shellcontact")
 _STAGING = re.compile(r"\.(?P<name>.+)\.(?P<kind>staging|old)-(?P<pid>\d+)-[0-9a-f]+$")
@@ -39,7 +39,7 @@ _STAGING = re.compile(r"\.(?P<name>.+)\.(?P<kind>staging|old)-(?P<pid>\d+)-[0-9a
 
 def resolve_target(path: str | Path) -> Path:
     """The real path of an output directory (a symbolic link is replaced at its destination)."""
-    return Path(os.path.realpath(Path(path).expanduser()))
+    return Path(os.path.realpath(expand_user(path)))
 
 
 def _mount_points() -> set[str]:
@@ -317,7 +317,7 @@ def replace_dir(target: str | Path, *, overwrite: bool, owned: Collection[str], 
     A non-empty target is refused unless ``overwrite``. On any exception (including
     KeyboardInterrupt) the staging directory is removed and the target is left as it was.
     """
-    target = Path(target).expanduser()  # one path, checked and written (a "~" the shell left unexpanded)
+    target = expand_user(target)  # one path, checked and written (a "~" the shell left unexpanded)
     check_output_dir(target, overwrite, option)  # refuse at once, before waiting for a lock
     with DirectoryLock(target, wait=wait, shown=target, option=option):
         remove_stale(target)

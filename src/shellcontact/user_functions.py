@@ -129,7 +129,7 @@ def consent_for(allow_code: bool, allow_modules: Iterable[str], source: str | Pa
             raise InputError(option, f"must name a Python module such as 'mymodule', got {m!r}")
     if not allow_code and not modules:
         return None
-    directory = os.path.realpath(Path(source).expanduser().parent) if allow_code and source is not None else None
+    directory = os.path.realpath(Path(source).parent) if allow_code and source is not None else None
     return CodeConsent(directory, modules)
 
 
