@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 from fuzz_cases import TEMPLATES, fuzz_case, output_path, points_file, scheduler_address, toml_text
-from hypothesis import given
+from hypothesis import given, settings
 from inprocess import run_cli
 
 ALLOWED_EXITS = {0, 2, 3}
@@ -76,6 +76,9 @@ def test_generated_cases(template: str, tmp_path_factory: pytest.TempPathFactory
 
 
 # -- output paths, --points files, scheduler addresses (issue 24) ---------------------------------------------
+#: the profile's number of examples, at most 300 each (a path or points example costs about 0.3 s: a solve)
+SURFACE = settings(settings.default, max_examples=min(settings.default.max_examples, 300))
+
 def _scratch(directory: Path) -> Path:
     """A fresh example directory: home/ ($HOME), target/, link -> target, full/keep.txt, file, and mnt/m a
     tmpfs mount holding data (where the machine allows mounting)."""
@@ -103,6 +106,7 @@ def test_generated_output_paths(tmp_path_factory: pytest.TempPathFactory) -> Non
     case.write_text(toml_text(TEMPLATES["panel"]), encoding="utf-8")
     cwd, home = os.getcwd(), os.environ.get("HOME")
 
+    @SURFACE
     @given(output_path())
     def one(drawn: tuple[str, bool, str]) -> None:
         path, force, how = drawn
@@ -142,6 +146,7 @@ def test_generated_points_files(tmp_path_factory: pytest.TempPathFactory) -> Non
     case = directory / "case.toml"
     case.write_text(toml_text(TEMPLATES["panel"]), encoding="utf-8")
 
+    @SURFACE
     @given(points_file())
     def one(data: bytes) -> None:
         points = directory / "points.csv"
@@ -170,6 +175,7 @@ def test_generated_scheduler_addresses(tmp_path_factory: pytest.TempPathFactory)
     case = directory / "case.toml"
     case.write_text(toml_text(TEMPLATES["panel"]), encoding="utf-8")
 
+    @SURFACE
     @given(scheduler_address())
     def one(address: str) -> None:
         try:
