@@ -33,8 +33,10 @@ check-fresh:
 	  && echo "fresh clone of $$(git rev-parse --short HEAD) in $$tmp/main" \
 	  && $(MAKE) -C "$$tmp/main" test; rc=$$?; rm -rf "$$tmp"; exit $$rc
 
-# 10 000 case files generated from the schema (tests/fuzz_cases.py), 1.5-3 minutes on 2 cores (76-187 s measured);
-# `make test` runs a fixed-seed 300 of them (about 12 s)
+# 10 000 case files generated from the schema (tests/fuzz_cases.py), 1.5-3 minutes on 2 cores (76-187 s measured),
+# and 300 each of output paths, --points files and --scheduler addresses (about 0.3 s per path or points file,
+# measured on the fixed-seed subset: a few minutes more); `make test` runs a fixed-seed 300 cases (about 12 s)
+# and 75 of each of the others (about 45 s)
 fuzz: $(STAMP)
 	$(BIN)/python -m pytest -n 2 -q tests/test_fuzz.py --hypothesis-profile=fuzz
 

@@ -386,3 +386,75 @@ def fuzz_case(draw, template: str) -> tuple[str, list[str]]:
     if draw(st.integers(0, 7)) == 0:
         args += ["--method", draw(st.sampled_from(["active-set", "dual", "penalty"]))]
     return toml_text(case), args
+
+
+# -- the other surfaces: output paths, --points files, scheduler addresses (issue 24) -------------------------
+#: components of a generated output path, relative to a scratch directory whose ``home`` is $HOME;
+#: ``link`` is a symbolic link to ``target``, ``full`` a non-empty directory, ``file`` a file, ``mnt`` a
+#: directory holding a mount point (where the machine allows one)
+PATH_STARTS = ["~", "~/", "./~", "", "link", "full", "file", "mnt", "./"]
+PATH_PARTS = ["out", "a b", "é", "~", ".", "x.staging-1-00", "link", "full", "deep/er"]
+
+
+@st.composite
+def output_path(draw) -> tuple[str, bool, str]:
+    """(a spelling of -o, whether --force is given, how it is given: ``-o P`` or ``--output=P``)."""
+    start = draw(st.sampled_from(PATH_STARTS))
+    parts = draw(st.lists(st.sampled_from(PATH_PARTS), min_size=0 if start not in ("", "./") else 1, max_size=3))
+    text = "/".join(p for p in [start.rstrip("/"), *parts] if p)
+    if start == "~/" and not parts:
+        text = "~/"
+    return text or "out", draw(st.booleans()), draw(st.sampled_from(["-o", "--output="]))
+
+
+POINT_KEYS = ["shell.thickness", "mesh.nx", "shell.poisson", "units.system", "no.such.key", "", " "]
+POINT_CELLS = ["0.01", "0.012", "4", "5", "0.3", '"SI"', "nan", "1e400", "", "x", '"unterminated', "[1, 2]",
+               "0.01 µm", "\"é\""]
+
+
+@st.composite
+def points_file(draw) -> bytes:
+    """The bytes of a --points file: mostly a CSV of case-file keys and TOML cells, mutated — invalid UTF-8, a
+    NUL, a byte-order mark, a cell over 128 KiB, ragged rows, nothing at all."""
+    keys = draw(st.lists(st.sampled_from(POINT_KEYS[:3]), min_size=1, max_size=2, unique=True))
+    if draw(st.integers(0, 5)) == 0:
+        keys.append(draw(st.sampled_from(POINT_KEYS)))
+    rows = [",".join(keys)]
+    for _ in range(draw(st.integers(0, 3))):
+        n = len(keys) + (draw(st.sampled_from([0, 0, 0, 1, -1])))
+        rows.append(",".join(draw(st.sampled_from(POINT_CELLS[:5])) if draw(st.integers(0, 4)) else
+                             draw(st.sampled_from(POINT_CELLS)) for _ in range(max(n, 0))))
+    data = ("\n".join(rows) + "\n").encode()
+    mutation = draw(st.sampled_from(["none"] * 4 + ["latin1", "nul", "bom", "bom16", "huge", "empty", "binary"]))
+    if mutation == "latin1":
+        data += "0.01,\xb5\n".encode("latin-1")
+    elif mutation == "nul":
+        data = data.replace(b"\n", b"\0\n", 1)
+    elif mutation == "bom":
+        data = b"\xef\xbb\xbf" + data
+    elif mutation == "bom16":
+        data = data.decode().encode("utf-16")
+    elif mutation == "huge":
+        data += b"1" * (129 * 1024) + b"\n"
+    elif mutation == "empty":
+        data = b""
+    elif mutation == "binary":
+        data = draw(st.binary(max_size=64))
+    return data
+
+
+SCHEMES = ["tcp", "tls", "TCP", "http", "https", "inproc", "ucx", "ws", "", "tcp:", "tcp:/"]
+HOSTS = ["127.0.0.1", "localhost", "[::1]", "", "host name", "[::1", "é.example", "10.0.0.5"]
+PORTS = [None, "0", "1", "8786", "65535", "65536", "99999", "-1", "", "abc", "8786/path", "8786?x=1"]
+
+
+@st.composite
+def scheduler_address(draw) -> str:
+    """A --scheduler value: a scheme, a host and a port drawn from the valid and the broken, sometimes with
+    whitespace around it or arbitrary text instead."""
+    if draw(st.integers(0, 9)) == 0:
+        return draw(st.text(max_size=30))
+    scheme, host, port = draw(st.sampled_from(SCHEMES)), draw(st.sampled_from(HOSTS)), draw(st.sampled_from(PORTS))
+    text = f"{scheme}://{host}" + ("" if port is None else f":{port}")
+    pad = draw(st.sampled_from(["", "", "", " ", "\t", "\n"]))
+    return draw(st.sampled_from([pad + text, text + pad]))

@@ -87,7 +87,7 @@ BAD = [
     ("shell.angle", None, "shell.angle", "required unless full"),
     ("shell.full", "yes", "shell.full", "true or false"),
     ("shell.radiuss", 1.0, "shell.radiuss", "did you mean 'radius'"),
-    ("shell.thickness", "no_such_module_xyz:t", "shell.thickness", "cannot import"),
+    ("shell.thickness", "no_such_module_xyz:t", "shell.thickness", "--allow-code"),
     ("supports.x_min", "pinned", "supports.x_min", "must be one of"),
     ("supports.x_min", "periodic", "supports.x_min", "phi edges"),
     ("supports.phi_min", "periodic", "supports.phi_min", "both"),
@@ -178,24 +178,25 @@ def _compliance(case: sc.Case) -> float:
     return float(sol.F @ sol.U)
 
 
-def test_thickness_function_from_a_case_file(tmp_path, monkeypatch):
-    """'module:function' thickness; a function returning the constant reproduces the constant case."""
+def test_thickness_function_from_a_case_file(tmp_path):
+    """'module:function' thickness from the case file's directory (allow_code=True); a function returning the
+    constant reproduces the constant case."""
     (tmp_path / "my_thickness.py").write_text(
         "import numpy as np\n"
         "def constant(x, phi):\n    return 0.1 + 0 * x\n"
         "def tapered(x, phi):\n    return 0.1 * (1.0 + 0.5 * (x + 1.0) / 2.0)\n"
         "def too_thick(x, phi):\n    return 2.0 + 0 * x\n"
     )
-    monkeypatch.syspath_prepend(str(tmp_path))
+    beside = {"source": tmp_path / "case.toml", "allow_code": True}
     ref = sc.solve(sc.case_from_dict(BASE)).solution
-    c = sc.solve(sc.case_from_dict(_with("shell.thickness", "my_thickness:constant"))).solution
+    c = sc.solve(sc.case_from_dict(_with("shell.thickness", "my_thickness:constant"), **beside)).solution
     diff = np.abs(c.U - ref.U).max() / np.abs(ref.U).max()
     print(f"\nconstant thickness as a function vs as a number: max relative difference {diff:.1e}")
     assert diff < 1e-10
-    tapered = sc.case_from_dict(_with("shell.thickness", "my_thickness:tapered"))
+    tapered = sc.case_from_dict(_with("shell.thickness", "my_thickness:tapered"), **beside)
     assert np.allclose(tapered.shell.t(np.array([-1.0, 1.0]), np.zeros(2)), [0.1, 0.15])
     with pytest.raises(InputError) as exc:
-        sc.case_from_dict(_with("shell.thickness", "my_thickness:too_thick"))
+        sc.case_from_dict(_with("shell.thickness", "my_thickness:too_thick"), **beside)
     assert exc.value.field == "shell.thickness"
 
 
@@ -263,7 +264,7 @@ def test_position_dependent_load_from_a_case_file(tmp_path, monkeypatch):
         "mesh": {"nx": 6, "nphi": 8},
         "loads": {"normal": "myloads:hydro"},
     }
-    case = sc.case_from_dict(raw)
+    case = sc.case_from_dict(raw, allow_modules=["myloads"])
     assert callable(case.loads.normal)
     import myloads
 
@@ -272,4 +273,4 @@ def test_position_dependent_load_from_a_case_file(tmp_path, monkeypatch):
     e1, e2 = sc.solve(case).solution.energy, sc.solve(from_python).solution.energy
     assert e1 == pytest.approx(e2, rel=1e-13) and e1 > 0
     with pytest.raises(sc.InputError, match="loads.normal"):
-        sc.case_from_dict({**raw, "loads": {"normal": "myloads:nothing"}})
+        sc.case_from_dict({**raw, "loads": {"normal": "myloads:nothing"}}, allow_modules=["myloads"])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 import textwrap
 
 import numpy as np
@@ -26,6 +27,7 @@ from shellcontact.punches import (
     place_punches,
     punch_from_dict,
 )
+from shellcontact.user_functions import CodeConsent, code_consent
 
 RNG = np.random.default_rng(7)
 
@@ -302,6 +304,9 @@ def test_custom_shape(tmp_path, monkeypatch):
         )
     )
     monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "my_punch", raising=False)
+    consent = code_consent(CodeConsent(modules=("my_punch",)))
+    consent.__enter__()
     sh = panel()
     p = punch_from_dict(
         {"shape": "custom", "function": "my_punch:ball", "direction": [0, 0, -1], "indentation": 0.002}, sh
@@ -318,6 +323,7 @@ def test_custom_shape(tmp_path, monkeypatch):
     with pytest.raises(InputError) as e:
         punch_from_dict({"shape": "custom", "function": "my_punch:ball", "indentation": 0.001}, sh)
     assert e.value.field == "punch.0.direction"
+    consent.__exit__(None, None, None)
 
 
 SPHERE = {"shape": "sphere", "center": [0.0, 0.0, 1.5], "radius": 0.3}

@@ -83,6 +83,7 @@ def slow_sweep(tmp_path: Path, jobs: int) -> tuple[subprocess.Popen, Path]:
            "SLOWLOAD_DIR": str(marks), "PYTHONPATH": os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")])}
     proc = subprocess.Popen(
         [sys.executable, "-m", "shellcontact.cli", "sweep", ROOF, *SMALL, "--set", 'loads.normal="slowload:normal"',
+         "--allow-module", "slowload",
          "--param", "shell.thickness", "--values", "0.2:0.3:4", "--jobs", str(jobs), "-o", "sw", "--no-figures"],
         cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120

@@ -35,6 +35,7 @@ from .schema import Key, Table, check_unknown
 from .solvers.methods import METHODS
 from .supports import SUPPORTS, Supports
 from .units import SYSTEMS
+from .user_functions import CodeConsent, code_consent, consent_for, current_consent
 
 _NUMBER_OR_FUNCTION = "string `\"module:function\"`: a function t(x, phi) (NumPy, φ in radians)"
 #: the allowed column of every modulus (material.check_stiffness_range)
@@ -221,6 +222,7 @@ class Case:
     units: str = "SI"  # [units] system: the labels of every output (units.SYSTEMS); numbers are never converted
     source: Path | None = None
     raw: dict[str, Any] = field(default_factory=dict)
+    code: CodeConsent | None = None  # the consent its "module:function" strings were imported under
 
 
 def expect_case(value: Any, function: str) -> None:
@@ -340,12 +342,23 @@ def _check_mesh_lines(shell: Shell, ms: MeshSpec) -> None:
                 raise InputError(key, f"{math.degrees(v):.6g} deg lies outside [{lo:.6g}, {hi:.6g}] deg")
 
 
-def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
-    """Validate a case given as a (TOML-shaped) dictionary; a relative mesh.file is read beside ``source``."""
+def case_from_dict(data: dict, source: str | Path | None = None, *, allow_code: bool = False,
+                   allow_modules: Iterable[str] = ()) -> Case:
+    """Validate a case given as a (TOML-shaped) dictionary; a relative mesh.file is read beside ``source``.
+
+    A ``"module:function"`` value is imported only with consent (``user_functions``, the trust model):
+    ``allow_code`` from the directory of ``source``, ``allow_modules`` by name from the Python path; without
+    either, the consent in force (``code_consent``), else none."""
     if not isinstance(data, dict):
         raise TypeError(f"case_from_dict(): data must be a dict of case-file tables such as {{'shell': {{...}}}}, "
                         f"got {type(data).__name__}")
     expect_path(source, "case_from_dict", "source", optional=True)
+    consent = consent_for(allow_code, allow_modules, source) or current_consent()
+    with code_consent(consent):
+        return _case_from_dict(data, source, consent)
+
+
+def _case_from_dict(data: dict, source: str | Path | None, consent: CodeConsent | None) -> Case:
     check_unknown("", data, CASE.names())
     if "shell" not in data:
         raise InputError("shell", "section [shell] is required")
@@ -386,6 +399,7 @@ def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
         units=UNITS.parse(data.get("units", {}))["system"],
         source=None if source is None else Path(source),
         raw=data,
+        code=consent,
     )
 
 
@@ -414,8 +428,11 @@ def read_case_dict(path: str | Path) -> dict[str, Any]:
                          "digits, more than Python reads") from None
 
 
-def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:
-    """Read and validate a TOML case file; ``sets`` are ``key=value`` overrides (``--set``)."""
+def load_case(path: str | Path, sets: Iterable[str] = (), *, allow_code: bool = False,
+              allow_modules: Iterable[str] = ()) -> Case:
+    """Read and validate a TOML case file; ``sets`` are ``key=value`` overrides (``--set``). Its
+    ``"module:function"`` values are imported only with ``allow_code`` (from the file's own directory) or
+    ``allow_modules`` (those modules, from the Python path): ``case_from_dict``."""
     expect_path(path, "load_case", "path")
     sets = expect_strings(sets, "load_case", "sets", "mesh.refine=1")
     data = read_case_dict(path)
@@ -423,7 +440,7 @@ def load_case(path: str | Path, sets: Iterable[str] = ()) -> Case:
         from .overrides import apply_overrides, parse_assignment
 
         data = apply_overrides(data, [parse_assignment(s) for s in sets])
-    return case_from_dict(data, source=Path(path))
+    return case_from_dict(data, source=Path(path), allow_code=allow_code, allow_modules=allow_modules)
 
 
 #: the kind of quantity (units.py) of each schema unit

@@ -29,6 +29,7 @@ import traceback
 from pathlib import Path
 
 from . import __version__
+from .console import Console, setup_logging
 from .errors import InputError, SolverError
 from .solvers.methods import METHODS
 
@@ -38,70 +39,6 @@ from .solvers.methods import METHODS
 EXIT_OK, EXIT_FAIL, EXIT_INPUT, EXIT_SOLVER = 0, 1, 2, 3
 
 log = logging.getLogger("shellcontact")
-
-
-# -- console ------------------------------------------------------------------------------------------------
-class Console:
-    """stdout messages (silenced by --quiet) and a progress bar on stderr when it is a terminal."""
-
-    def __init__(self, quiet: bool = False, stream=None) -> None:
-        self.quiet = quiet
-        self.stream = stream or sys.stderr
-        self.bar = not quiet and hasattr(self.stream, "isatty") and self.stream.isatty() and not os.environ.get("CI")
-        self._drawn = False
-
-    def print(self, *args) -> None:
-        if not self.quiet:
-            self.clear()
-            print(*args, flush=True)
-
-    def progress(self, done: int, total: int, message: str = "") -> None:
-        """Draw ``[####....] done/total message`` in place on a terminal; elsewhere (a log, a pipe) one
-        line ``[done/total] message`` per step on stderr, unless quiet."""
-        if not self.bar:
-            if not self.quiet and done:
-                print(f"[{done}/{total}] {message}", file=self.stream, flush=True)
-            return
-        width = 30
-        fill = int(width * done / total) if total else width
-        text = f"\r[{'#' * fill}{'.' * (width - fill)}] {done}/{total} {message}"[:120]
-        self.stream.write(text.ljust(120) if self._drawn else text)
-        self.stream.flush()
-        self._drawn = True
-        if done >= total:
-            self.clear()
-
-    def status(self, message: str) -> None:
-        """A one-line status in place (terminals only), e.g. solver iterations."""
-        if self.bar:
-            self.stream.write(("\r" + message)[:120].ljust(121))
-            self.stream.flush()
-            self._drawn = True
-
-    def clear(self) -> None:
-        if self._drawn:
-            self.stream.write("\r" + " " * 120 + "\r")
-            self.stream.flush()
-            self._drawn = False
-
-
-def setup_logging(verbose: int, quiet: bool, log_file: str | None) -> None:
-    log.handlers.clear()
-    log.propagate = False
-    log.setLevel(logging.DEBUG)
-    console = logging.StreamHandler(sys.stderr)
-    # warnings change what a result means: they reach stderr even with --quiet
-    console.setLevel(logging.WARNING if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)])
-    console.setFormatter(logging.Formatter("%(message)s"))
-    log.addHandler(console)
-    if log_file:
-        try:
-            fh = logging.FileHandler(log_file)
-        except OSError as exc:
-            raise InputError("--log", f"cannot open log file {log_file!r}: {exc.strerror}") from None
-        fh.setLevel(logging.DEBUG)
-        fh.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
-        log.addHandler(fh)
 
 
 # -- helpers ------------------------------------------------------------------------------------------------
@@ -114,18 +51,22 @@ def _sets(args: argparse.Namespace) -> list[str]:
 
 def _load(args: argparse.Namespace):
     from .case import load_case
+    from .user_functions import consent_for
 
     sets = _sets(args)
-    case = load_case(args.case, sets)
+    consent_for(args.allow_code, args.allow_module, args.case, "--allow-module")  # names checked, by the flag
+    case = load_case(args.case, sets, allow_code=args.allow_code, allow_modules=args.allow_module)
     log.debug("case %s loaded with overrides %s", args.case, sets)
     return case, sets
 
 
 def _output(args: argparse.Namespace, suffix: str) -> Path:
     """-o DIR, or <case name><suffix> beside the working directory."""
+    from .files import expand_user
+
     if args.output is None:
         return Path(f"{Path(args.case).stem}{suffix}")
-    return Path(args.output)
+    return expand_user(args.output)  # "--output=~/x": bash leaves the ~; expanded once, here
 
 
 def _vec(v) -> str:
@@ -256,6 +197,11 @@ def cmd_demo(args: argparse.Namespace, con: Console) -> int:
 def cmd_verify(args: argparse.Namespace, con: Console) -> int:
     from .verify import run_verify
 
+    if args.quiet:  # the checks' own solves warn as designed (a penalty's O(eps) residuals): not news
+        for handler in log.handlers:
+            if type(handler) is logging.StreamHandler:
+                handler.setLevel(logging.ERROR)
+
     return run_verify(quiet=args.quiet)
 
 
@@ -266,8 +212,11 @@ def _workers(args: argparse.Namespace, default: int | None) -> int | None:
     if args.serial:
         return 0
     if args.workers is not None:
-        if args.workers < 0:
-            raise InputError("--workers", f"must be >= 0 (0: in this process), got {args.workers}")
+        from .engine import max_workers
+
+        if not 0 <= args.workers <= max_workers():
+            raise InputError("--workers", f"must be >= 0 (0: in this process) and at most {max_workers()} (four "
+                             f"processes per core), got {args.workers}")
         return args.workers
     return default
 
@@ -276,8 +225,11 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
     from .studies import parse_values, sweep, sweep_table
 
     values = parse_values(args.values, args.max_memory)
-    if args.jobs < 1:
-        raise InputError("--jobs", f"must be >= 1, got {args.jobs}")
+    from .engine import max_workers
+
+    if not 1 <= args.jobs <= max_workers():
+        raise InputError("--jobs", f"must be >= 1 and at most {max_workers()} (four processes per core), "
+                         f"got {args.jobs}")
     workers = _workers(args, 0 if args.jobs == 1 else args.jobs)
     case, _ = _load(args)
     out = _output(args, "-sweep")
@@ -399,6 +351,10 @@ def _case_args(p: argparse.ArgumentParser, out_help: str) -> None:
         "(e.g. --set mesh.refine=2 --set punch.0.indentation=2e-3); repeatable",
     )
     _output_args(p)
+    p.add_argument("--allow-code", action="store_true", help="let the case's \"module:function\" values import "
+                   "Python modules from the case file's own directory (docs/case-file.md, trust model)")
+    p.add_argument("--allow-module", action="append", default=[], metavar="MODULE",
+                   help="let them import MODULE from the Python path too; repeatable")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     p.add_argument("--max-memory", metavar="SIZE", help="memory a solve may need, e.g. 8G or 512M (default: the "
                    "memory available); a case estimated to need more is refused before anything is built")
@@ -529,6 +485,14 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _quiet_exit() -> None:
+    """Interrupted: Dask's unfinished tasks are not reported (the process ends now)."""
+    if "distributed" in sys.modules:
+        from .engine import silence_dask
+
+        silence_dask()
+
+
 class Terminated(BaseException):
     """SIGTERM or SIGHUP, raised in the main thread so that a run cleans up as after Ctrl-C."""
 
@@ -571,20 +535,24 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_SOLVER
     except KeyboardInterrupt:
         con.clear()
+        _quiet_exit()
         print("interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
     except Terminated as exc:
         con.clear()
+        _quiet_exit()
         print(f"terminated by {signal.Signals(exc.signum).name}", file=sys.stderr)
         return 128 + exc.signum
     except OSError as exc:
         con.clear()
-        print(f"error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        where = f"{exc.filename}: " if exc.filename else ""  # every file we write is named (files, transaction)
+        print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
         return EXIT_INPUT
     except MemoryError:
-        con.clear()
-        print("error: mesh: not enough memory for this problem; use a coarser mesh (mesh.nx, mesh.nphi, "
-              "mesh.refine)", file=sys.stderr)
+        con.clear()  # a bounded input (--points, a scheduler's answer) is refused before this: the problem's size
+        print("error: not enough memory for this problem: use a coarser mesh (mesh.nx, mesh.nphi, mesh.refine), "
+              "fewer points at once (--workers) or --max-memory to be told before anything is built",
+              file=sys.stderr)
         return EXIT_INPUT
     except Exception as exc:  # noqa: BLE001 — a bug: one line and where to report it; the traceback under -v/--log
         con.clear()

@@ -38,7 +38,10 @@ def _atomic(path: str | Path, write: Callable[[int, str], None]) -> None:
     renamed into place; on any failure it is removed, and an OSError names ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:  # a full disk: name the file being written, not its temporary
+        raise _naming(exc, path) from exc
     try:
         write(fd, tmp)
         os.chmod(tmp, _MODE)
@@ -92,6 +95,13 @@ def json_text(data: Any) -> str:
 
 def write_json(path: str | Path, data: Any) -> None:
     atomic_write_bytes(path, json_text(data).encode())
+
+
+def expand_user(path: str | os.PathLike) -> Path:
+    """The output path as written, but a leading ``~`` of a string is the home directory (the shell leaves it
+    in ``--output=~/x``); a ``Path`` object is taken as written, as pathlib does (``Path("./~")`` is ``~``).
+    Expanded once, where a path enters, then checked and written as the same path."""
+    return Path(os.path.expanduser(path)) if isinstance(path, str) else Path(path)
 
 
 def check_output_dir(path: str | Path, force: bool, option: str = "--output") -> Path:

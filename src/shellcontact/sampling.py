@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import random
 import re
 from collections.abc import Sequence
@@ -37,6 +38,8 @@ _CALL = re.compile(r"^\s*(?P<name>[a-z]+)\s*\((?P<args>[^()]*)\)\s*$")
 _WORD = re.compile(r"^[A-Za-z_][A-Za-z0-9_+\-]*$")  # a value list of words: solver.method=active-set,dual
 
 Point = dict[str, Any]
+#: the largest --points file read (a table of points is a small file; /dev/zero is not one) and cell
+MAX_POINTS_BYTES, MAX_CELL = 64 * 2**20, 128 * 2**10
 
 
 # -- value lists ----------------------------------------------------------------------------------------------
@@ -187,10 +190,17 @@ def _open_unit(rng: random.Random) -> float:
             return u
 
 
+def _generator(seed: int) -> random.Random:
+    """``random.Random(seed)`` for a seed >= 0 (it would take -1 as 1: two seeds, one sample)."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError("--seed", f"must be an integer >= 0, got {seed!r}")
+    return random.Random(seed)
+
+
 def latin_hypercube(specs: Sequence[Spec], n: int, seed: int = 0) -> list[Point]:
     """``n`` points; for every key, each of the ``n`` equal-probability strata holds exactly one point."""
     _random_specs(specs, n, "lhs")
-    rng = random.Random(seed)
+    rng = _generator(seed)
     columns = []
     for s in specs:
         strata = list(range(n))
@@ -202,7 +212,7 @@ def latin_hypercube(specs: Sequence[Spec], n: int, seed: int = 0) -> list[Point]
 def monte_carlo(specs: Sequence[Spec], n: int, seed: int = 0) -> list[Point]:
     """``n`` independent draws of every key."""
     _random_specs(specs, n, "mc")
-    rng = random.Random(seed)
+    rng = _generator(seed)
     return [{s.key: s.quantile(_open_unit(rng)) for s in specs} for _ in range(n)]
 
 
@@ -219,19 +229,32 @@ def sample(specs: Sequence[Spec], how: str, n: int | None = None, seed: int = 0,
         raise InputError("--sample", f"one of {', '.join(SAMPLINGS)}, got {how!r}")
     if n is None:
         raise InputError("--samples", f"--sample {how} needs the number of points (--samples N)")
+    _generator(seed)
     check_steps(n, max_memory, where="--samples")
     return (latin_hypercube if how == "lhs" else monte_carlo)(specs, n, seed)
 
 
 def read_points(path: str | Path) -> list[Point]:
     """A CSV table of points: the header names case-file keys, each row one point (cells are TOML literals;
-    an empty cell leaves the case's value)."""
+    an empty cell leaves the case's value). UTF-8, at most ``MAX_POINTS_BYTES``, cells of at most ``MAX_CELL``."""
     where = "--points"
     try:
-        text = Path(path).read_text()
+        with open(os.path.expanduser(path) if isinstance(path, str) else path, "rb") as fh:
+            data = fh.read(MAX_POINTS_BYTES + 1)  # bounded: --points /dev/zero is refused, not read forever
     except OSError as exc:
         raise InputError(where, f"cannot read {str(path)!r}: {exc.strerror}") from None
-    rows = list(csv.reader(text.splitlines()))
+    if len(data) > MAX_POINTS_BYTES:
+        raise InputError(where, f"{str(path)!r} is larger than {MAX_POINTS_BYTES // 2**20} MiB; a table of points "
+                         "is a CSV file of one row per point")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise InputError(where, f"{str(path)!r} is not a UTF-8 text file (byte {exc.start} is not UTF-8)") from None
+    try:
+        rows = list(csv.reader(text.splitlines()))
+    except csv.Error as exc:  # a NUL byte, or a cell over csv.field_size_limit() (128 KiB)
+        raise InputError(where, f"{str(path)!r} is not a CSV table of points: {exc} (cells of at most "
+                         f"{MAX_CELL // 2**10} KiB)") from None
     if not rows or not any(c.strip() for c in rows[0]):
         raise InputError(where, f"{str(path)!r} has no header of case-file keys")
     keys = [c.strip() for c in rows[0]]

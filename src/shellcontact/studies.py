@@ -29,13 +29,21 @@ from typing import Any
 from .arguments import expect_callable, expect_integer, expect_numbers, expect_path
 from .case import Case, case_from_dict, expect_case, key_kind
 from .errors import InputError
-from .files import atomic_write_bytes, atomic_write_text, atomic_write_with, check_output_dir, write_json
+from .files import (
+    atomic_write_bytes,
+    atomic_write_text,
+    atomic_write_with,
+    check_output_dir,
+    expand_user,
+    write_json,
+)
 from .overrides import apply_overrides, split_path
 from .sampling import (
     Point,
     parse_values,  # noqa: F401 — public here too (the sweep's --values; arguments.py names it)
     whole_value,
 )
+from .user_functions import CodeConsent, code_consent
 
 log = logging.getLogger("shellcontact")
 
@@ -128,7 +136,10 @@ PROBE_COMPONENTS = ("u", "v", "w")
 
 
 def _fingerprint(raw: dict[str, Any], source: Any) -> str:
-    text = json.dumps({"case": raw, "source": str(source)}, sort_keys=True, default=str)
+    """The identity of a case: its contents and its file's real path (``case.toml``, ``./case.toml`` and
+    ``/abs/case.toml`` are one case, so a study resumes whichever way it is spelled)."""
+    where = os.path.realpath(source) if source is not None else None
+    text = json.dumps({"case": raw, "source": str(where)}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -140,7 +151,8 @@ def _point_cases(case: Case, points: Sequence[Point], source: str | None, label:
     for i, point in enumerate(points):
         try:
             raw = apply_overrides(case.raw, point)
-            out.append((raw, case_from_dict(raw, source=source)))
+            with code_consent(case.code):  # a point imports only what the case was allowed to
+                out.append((raw, case_from_dict(raw, source=source)))
         except InputError as exc:
             where = option + exc.field.removeprefix("--set") if exc.field.startswith("--set ") else exc.field
             raise InputError(where, f"{exc.message} ({label(i)})") from None
@@ -201,10 +213,12 @@ def _field_bytes(result: Any, keep: Sequence[str]) -> dict[str, bytes]:
 
 
 def _solve_points(raws: Sequence[dict], source: str | None, keep: Sequence[str],
-                  max_memory: float | str | None = None) -> list[tuple[dict[str, Any], dict[str, bytes]]]:
+                  max_memory: float | str | None = None,
+                  code: CodeConsent | None = None) -> list[tuple[dict[str, Any], dict[str, bytes]]]:
     """One Dask task: the summaries (and kept files) of a family of points (the worker validates the cases
-    again from ``raws``)."""
-    cases = [case_from_dict(raw, source=source) for raw in raws]
+    again from ``raws``, importing only the code ``code``, the consent the study was given, allows)."""
+    with code_consent(code):
+        cases = [case_from_dict(raw, source=source) for raw in raws]
     return [(r.summary(), _field_bytes(r, keep)) for r in _solve_group(cases, max_memory)]
 
 
@@ -255,6 +269,7 @@ def _run_points(
     sums: list[dict[str, Any] | None] = [None] * n
     reused = 0
     if work is not None:
+        _own_directories(work)
         (work / RECORDS).mkdir(parents=True, exist_ok=True)
         for tmp in (work / RECORDS).glob(".step-*.tmp"):  # left by a study killed while writing a record
             tmp.unlink(missing_ok=True)
@@ -294,7 +309,8 @@ def _run_points(
         workers = 0  # one point: no cluster to start
     elif address is None and workers is None:
         workers = min(os.cpu_count() or 1, len(todo))
-    with open_engine(workers, address, "--scheduler" if scheduler is not None else SCHEDULER_ENV) as engine:
+    with open_engine(workers, address, "--scheduler" if scheduler is not None else SCHEDULER_ENV,
+                     notice=announce) as engine:
         if announce and workers != 0:
             dashboard = f"; dashboard {engine.dashboard}" if engine.dashboard else ""
             announce(f"solving {len(todo)} points on {engine.description}{dashboard}")
@@ -305,7 +321,8 @@ def _run_points(
                 finished(todo[k], result.summary(), _field_bytes(result, keep))
             return rows, sums, reused  # type: ignore[return-value]
         tasks = _tasks([raw for raw, _ in points], todo, engine.workers)
-        args = [([points[i][0] for i in t], source, keep, max_memory) for t in tasks]
+        code = points[0][1].code
+        args = [([points[i][0] for i in t], source, keep, max_memory, code) for t in tasks]
 
         def task_done(k: int, value: list[tuple[dict[str, Any], dict[str, bytes]]]) -> None:
             for i, (summary, files) in zip(tasks[k], value):
@@ -319,6 +336,17 @@ def _run_points(
 
         engine.run(_solve_points, args, task_done, describe)
     return rows, sums, reused  # type: ignore[return-value]
+
+
+def _own_directories(work: Path) -> None:
+    """The records and kept fields are written only inside the study's directory: a symbolic link in their
+    place (``steps/``, ``fields/``, ``fields/NNNN/``) would write through it into the link's target."""
+    links = [p for p in (work / RECORDS, work / FIELDS) if p.is_symlink()]
+    if (work / FIELDS).is_dir() and not (work / FIELDS).is_symlink():
+        links += [p for p in (work / FIELDS).iterdir() if p.is_symlink()]
+    if links:
+        raise InputError("--output", f"{str(links[0])!r} is a symbolic link; a study writes its records only "
+                         "inside its own directory: remove the link (or use --force for a fresh study)")
 
 
 def _same_study(directory: Path, manifest_name: str, manifest: dict[str, Any], identity: Sequence[str]) -> bool:
@@ -349,22 +377,26 @@ def _in_directory(
     beside it and keeps that result until the new one is complete. ``solve(work)`` computes, ``write(res,
     directory)`` writes the final files and returns their names.
     """
-    from .transaction import DirectoryLock, Staging, name_in_target, remove_stale
+    from .transaction import DirectoryLock, Staging, name_in_target, remove_stale, stale_stagings
 
     resume = not overwrite and _same_study(target, manifest_name, manifest, identity)
     if not resume:
         check_output_dir(target, overwrite)
     with DirectoryLock(target, wait=wait):
-        remove_stale(target)
+        # an interrupted replacement of another result by this very study: its finished points are kept
+        adopt = next((d for d in stale_stagings(target) if _same_study(d, manifest_name, manifest, identity)), None)
         resume = not overwrite and _same_study(target, manifest_name, manifest, identity)
         if not resume:
             check_output_dir(target, overwrite)
         in_place = resume or not target.exists() or not any(target.iterdir())
+        remove_stale(target, keep=None if in_place else adopt)
         created, fresh = not target.exists(), in_place and not resume
         stage = None if in_place else Staging(target)
         work = target if stage is None else stage.path
         try:
-            if stage is not None:
+            if stage is not None and adopt is not None:
+                stage.adopt(adopt)
+            elif stage is not None:
                 stage.create()
             work.mkdir(parents=True, exist_ok=True)
             write_json(work / manifest_name, manifest)
@@ -375,7 +407,9 @@ def _in_directory(
             names = write(res, stage.path)
             stage.commit(final if in_place else entries)
         except BaseException as exc:
-            if stage is not None:
+            if not in_place and stage is not None and any((stage.path / RECORDS).glob("step-*.json")):
+                pass  # finished points replacing another result: kept for the next run to take over
+            elif stage is not None:
                 stage.discard()
                 if isinstance(exc, OSError):
                     name_in_target(exc, stage.path, target)
@@ -397,8 +431,12 @@ def _keep_files(keep_fields: str | None) -> tuple[str, ...]:
 
 
 def _check_workers(workers: int | None) -> None:
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
-        raise InputError("--workers", f"must be an integer >= 0 (0: in this process), got {workers!r}")
+    from .engine import max_workers
+
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0
+                                or workers > max_workers()):
+        raise InputError("--workers", f"must be an integer >= 0 (0: in this process) and at most {max_workers()} "
+                         f"(four processes per core), got {workers!r}")
 
 
 def write_parquet(path: str | Path, rows: Sequence[dict[str, Any]], units: dict[str, str]) -> Path | None:
@@ -525,7 +563,7 @@ def sweep(
 
     if output_dir is None:
         return solve(None)
-    target = Path(output_dir)
+    target = expand_user(output_dir)  # one path, checked and written
     manifest = {"case_file": source, "case": _fingerprint(case.raw, source), "param": param, "values": vals}
     res, names = _in_directory(
         target, manifest_name="sweep.json", manifest=manifest, identity=("case", "param", "values"),
@@ -558,7 +596,7 @@ def _write_sweep_files(res: SweepResult, out: Path, param: str, figures: bool, s
         names += list(pngs)
     from .report import write_study_report
 
-    about = {"case file": source, "parameter": param, "values": len(res.values), "reused steps": res.reused}
+    about = {"case file": source, "parameter": param, "values": len(res.values)}  # the same page when resumed
     write_study_report(out / "report.html", f"shellcontact sweep: {param}", res.rows, pngs, about, raw)
     return [*names, "report.html"]
 
@@ -643,6 +681,11 @@ def study(
         return f"point {i}: " + ", ".join(f"{k} = {v!r}" for k, v in points[i].items())
 
     cases = _point_cases(case, points, source, label, "--points" if sampling == "points" else "-p")
+    systems = sorted({c.units for _, c in cases})
+    if len(systems) > 1:  # the rows, CSV/Parquet units and figures are labelled in one system
+        raise InputError("--points" if sampling == "points" else "-p units.system",
+                         f"the points use the unit systems {', '.join(systems)}; a study's table has one: run one "
+                         "study per system")
     fps = [_fingerprint({"case": raw, "probe": components}, source) for raw, _ in cases]
 
     def solve(work: Path | None) -> StudyResult:
@@ -658,7 +701,7 @@ def study(
 
     if output_dir is None:
         return solve(None)
-    target = Path(output_dir)
+    target = expand_user(output_dir)  # one path, checked and written
     manifest = {"case_file": source, "case": _fingerprint(case.raw, source), "sampling": sampling,
                 "probe_components": list(components), "keys": keys, "points": points}
     res, names = _in_directory(
@@ -751,7 +794,6 @@ def _write_study_files(res: StudyResult, out: Path, figures: bool, source: str |
     from .report import write_study_report
 
     about = {"case file": source, "sampling": res.sampling, "keys": ", ".join(res.keys), "points": len(res.rows),
-             "reused points": res.reused,
              "units": ", ".join(f"{c} [{u}]" for c, u in units.items() if u)}
     title = f"shellcontact study: {', '.join(res.keys)}"
     write_study_report(out / "report.html", title, res.rows, pngs, about, raw)
@@ -833,7 +875,7 @@ def convergence(
 
     with replace_dir(output_dir, overwrite=overwrite, owned=CONVERGENCE_FILES, wait=wait) as stage:
         res = _convergence(case, levels, stage, progress, figures, max_memory)
-    res.files = {name: Path(output_dir) / name for name in res.files}
+    res.files = {name: expand_user(output_dir) / name for name in res.files}
     return res
 
 
@@ -847,7 +889,8 @@ def _convergence(case: Case, levels: int, out: Path | None, progress: Progress |
     for lv in range(levels):
         if progress:
             progress(lv, levels, f"level {lv} (refine {r0 + lv})")
-        c = case_from_dict(apply_overrides(case.raw, {"mesh.refine": r0 + lv}), source=case.source)
+        with code_consent(case.code):
+            c = case_from_dict(apply_overrides(case.raw, {"mesh.refine": r0 + lv}), source=case.source)
         result = solve(c, max_memory=max_memory)
         summary = result.summary()
         name, q = _quantity(summary)

@@ -8,6 +8,10 @@ which the old one is deleted. At every instant the target holds either the previ
 complete result. A lock file beside the target (``.DIR.lock``, ``flock``) keeps two runs out of
 the same directory; staging directories whose process is gone are removed by the next run.
 
+Deleting never descends into another filesystem (``remove_tree``): a target that holds a mount point
+is committed entry by entry, so the mount stays where it is and its files are never touched. Once the
+new result is in place, a failure to delete the previous one is a warning, never a failed run.
+
 ``replace_dir(target, overwrite=..., owned=...)`` is the whole transaction as a context manager;
 ``DirectoryLock``, ``remove_stale`` and ``Staging`` are its parts (a resumable sweep uses them
 separately).
@@ -18,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import fcntl
+import logging
 import os
 import re
 import secrets
@@ -26,14 +31,83 @@ from collections.abc import Collection, Iterator
 from pathlib import Path
 
 from .errors import InputError
-from .files import check_output_dir
+from .files import check_output_dir, expand_user
 
+log = logging.getLogger("shellcontact")
 _STAGING = re.compile(r"\.(?P<name>.+)\.(?P<kind>staging|old)-(?P<pid>\d+)-[0-9a-f]+$")
 
 
 def resolve_target(path: str | Path) -> Path:
     """The real path of an output directory (a symbolic link is replaced at its destination)."""
-    return Path(os.path.realpath(Path(path).expanduser()))
+    return Path(os.path.realpath(expand_user(path)))
+
+
+def _mount_points() -> set[str]:
+    """Every mount point of this process (Linux ``/proc/self/mountinfo``; empty elsewhere)."""
+    try:
+        text = Path("/proc/self/mountinfo").read_text()
+    except OSError:
+        return set()
+    # field 5 is the mount point, with space, tab, newline and backslash written as octal escapes
+    unescape = re.compile(r"\\([0-7]{3})")
+    return {unescape.sub(lambda m: chr(int(m[1], 8)), line.split()[4]) for line in text.splitlines()
+            if len(line.split()) > 4}
+
+
+def mounts_below(path: str | Path) -> list[str]:
+    """The mount points strictly inside ``path`` (bind mounts of the same filesystem too)."""
+    root = os.path.realpath(path).rstrip("/") + "/"
+    return sorted(m for m in _mount_points() if m.startswith(root))
+
+
+def remove_tree(path: str | Path) -> list[str]:
+    """Delete ``path`` and what it holds, never descending into another filesystem: a mount point (or a
+    directory on another device) inside is left, with the directories that lead to it. Returns what was
+    left; a symbolic link is removed, never followed."""
+    path = str(path)
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return []
+    if not os.path.isdir(path) or os.path.islink(path):
+        os.unlink(path)
+        return []
+    mounts = set(mounts_below(path))
+    left: list[str] = []
+
+    def walk(directory: str) -> bool:  # True when emptied and removed
+        whole = True
+        with os.scandir(directory) as entries:
+            for entry in entries:
+                if entry.is_dir(follow_symlinks=False):
+                    if entry.path in mounts or entry.stat(follow_symlinks=False).st_dev != st.st_dev:
+                        left.append(entry.path)
+                        whole = False
+                    else:
+                        whole = walk(entry.path) and whole
+                else:
+                    with contextlib.suppress(FileNotFoundError):
+                        os.unlink(entry.path)
+        if whole:
+            os.rmdir(directory)
+        return whole
+
+    if os.path.realpath(path) in _mount_points():
+        return [path]
+    walk(path)
+    return left
+
+
+def _remove_quietly(path: str | Path, what: str) -> None:
+    """``remove_tree`` after the result is committed: what cannot go is reported, never raised."""
+    try:
+        left = remove_tree(path)
+    except OSError as exc:
+        log.warning("the %s %s could not be deleted (%s); delete it by hand", what, path, exc.strerror or exc)
+        return
+    if left:
+        log.warning("the %s %s was kept: it holds another filesystem (%s); unmount it, then delete the "
+                    "directory by hand", what, path, ", ".join(left[:3]))
 
 
 def _pid_alive(pid: int) -> bool:
@@ -63,7 +137,7 @@ class DirectoryLock:
     def __enter__(self) -> DirectoryLock:
         self.target.parent.mkdir(parents=True, exist_ok=True)
         while True:
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)  # an OSError names the lock file
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | (0 if self.wait else fcntl.LOCK_NB))
             except BlockingIOError:
@@ -82,8 +156,12 @@ class DirectoryLock:
             if same:
                 break
             os.close(fd)
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{os.getpid()}\n".encode())
+        try:
+            os.ftruncate(fd, 0)
+            os.write(fd, f"{os.getpid()}\n".encode())
+        except OSError as exc:  # e.g. a full disk: the first file written, named
+            os.close(fd)
+            raise OSError(exc.errno, exc.strerror, str(self.path)) from None
         self.fd = fd
         return self
 
@@ -94,20 +172,33 @@ class DirectoryLock:
             self.fd = None
 
 
-def remove_stale(target: str | Path) -> None:
-    """Remove the staging directories of runs into ``target`` whose process is gone (call under the lock).
+def stale_stagings(target: str | Path) -> list[Path]:
+    """The staging directories of runs into ``target`` whose process is gone (call under the lock)."""
+    target = resolve_target(target)
+    out = []
+    for entry in sorted(target.parent.glob(f".{_glob_escape(target.name)}.staging-*-*")):
+        m = _STAGING.match(entry.name)
+        if m is not None and m["name"] == target.name and not _pid_alive(int(m["pid"])):
+            out.append(entry)
+    return out
+
+
+def remove_stale(target: str | Path, keep: Path | None = None) -> None:
+    """Remove the staging directories of runs into ``target`` whose process is gone (call under the lock),
+    but ``keep`` (one a study takes over: ``Staging.adopt``).
 
     A previous result left aside by a run cut between its two renames is put back first.
     """
     target = resolve_target(target)
     for entry in sorted(target.parent.glob(f".{_glob_escape(target.name)}.*-*-*")):
         m = _STAGING.match(entry.name)
-        if m is None or m["name"] != target.name or _pid_alive(int(m["pid"])):
+        if m is None or m["name"] != target.name or _pid_alive(int(m["pid"])) or entry == keep:
             continue
         if m["kind"] == "old" and not os.path.lexists(target):
             os.rename(entry, target)
         else:
-            shutil.rmtree(entry, ignore_errors=True)
+            with contextlib.suppress(OSError):
+                remove_tree(entry)
 
 
 def _glob_escape(name: str) -> str:
@@ -163,6 +254,11 @@ class Staging:
         self.path.mkdir(parents=True)
         return self
 
+    def adopt(self, stale: Path) -> Staging:
+        """Take over ``stale``, the staging directory of an interrupted run (its finished work kept)."""
+        os.rename(stale, self.path)
+        return self
+
     def commit(self, owned: Collection[str]) -> None:
         """Move the staged directory to the target.
 
@@ -173,38 +269,44 @@ class Staging:
         if not os.path.lexists(target):
             os.rename(self.path, target)
             return
-        if Path.cwd() == target or target in Path.cwd().parents:
-            self._commit_entries(owned)  # a directory in use as the working directory stays where it is
+        if Path.cwd() == target or target in Path.cwd().parents or mounts_below(target):
+            # a directory in use as the working directory stays where it is; one holding a mount point too
+            # (a swap would carry the mount into the previous result, deleted next)
+            self._commit_entries(owned)
             return
         for entry in target.iterdir():
             if entry.name not in owned and not os.path.lexists(self.path / entry.name):
                 _link_tree(entry, self.path / entry.name)
         if _exchange(self.path, target):
-            shutil.rmtree(self.path)  # now the previous result
+            _remove_quietly(self.path, "previous result")  # committed: a leftover is a warning
         else:
             aside = target.parent / f".{target.name}.old-{os.getpid()}-{secrets.token_hex(4)}"
             os.rename(target, aside)
             os.rename(self.path, target)
-            shutil.rmtree(aside)
+            _remove_quietly(aside, "previous result")
 
     def _commit_entries(self, owned: Collection[str]) -> None:
         """Entry by entry (each atomic, not the set): only when the target cannot be swapped."""
         for name in owned:
             staged, dst = self.path / name, self.target / name
             if os.path.lexists(staged):
-                if staged.is_dir() and dst.is_dir() and not dst.is_symlink() and _exchange(staged, dst):
+                mount = os.path.realpath(dst) in _mount_points()
+                if staged.is_dir() and dst.is_dir() and not dst.is_symlink() and not mount and _exchange(staged, dst):
                     continue
                 if dst.is_dir() and not dst.is_symlink():
-                    shutil.rmtree(dst)
+                    if remove_tree(dst):
+                        raise OSError(errno.EBUSY, "it holds another filesystem (a mount point); unmount it or "
+                                      "write elsewhere", str(dst))
                 os.replace(staged, dst)
             elif dst.is_dir() and not dst.is_symlink():
-                shutil.rmtree(dst)  # the previous run's, not written this time
+                remove_tree(dst)  # the previous run's, not written this time (a mount inside stays)
             else:
                 dst.unlink(missing_ok=True)
         self.discard()
 
     def discard(self) -> None:
-        shutil.rmtree(self.path, ignore_errors=True)
+        with contextlib.suppress(OSError):
+            remove_tree(self.path)
 
 
 @contextlib.contextmanager
@@ -215,6 +317,7 @@ def replace_dir(target: str | Path, *, overwrite: bool, owned: Collection[str], 
     A non-empty target is refused unless ``overwrite``. On any exception (including
     KeyboardInterrupt) the staging directory is removed and the target is left as it was.
     """
+    target = expand_user(target)  # one path, checked and written (a "~" the shell left unexpanded)
     check_output_dir(target, overwrite, option)  # refuse at once, before waiting for a lock
     with DirectoryLock(target, wait=wait, shown=target, option=option):
         remove_stale(target)
