@@ -35,6 +35,7 @@ from .schema import Key, Table, check_unknown
 from .solvers.methods import METHODS
 from .supports import SUPPORTS, Supports
 from .units import SYSTEMS
+from .validity import angle_unit_error
 
 _NUMBER_OR_FUNCTION = "string `\"module:function\"`: a function t(x, phi) (NumPy, φ in radians)"
 #: the allowed column of every modulus (material.check_stiffness_range)
@@ -337,6 +338,23 @@ def _check_mesh_lines(shell: Shell, ms: MeshSpec) -> None:
                 raise InputError(key, f"{math.degrees(v):.6g} deg lies outside [{lo:.6g}, {hi:.6g}] deg")
 
 
+def _check_angle_unit(shell: Shell, data: dict, probes: list[tuple[float, float]]) -> None:
+    """``shell.angle`` in radians where degrees are expected, recognised by the punch centres and probes that
+    lie between its numbers read as radians (validity.angle_unit_error), named before it fails as a probe
+    outside the shell or an empty admissible set."""
+    if shell.full:
+        return
+    raw = data.get("punch", [])
+    points = [(f"punch.{k}'s centre", tuple(p["center"])) for k, p in enumerate(raw if isinstance(raw, list) else [])
+              if isinstance(p, dict) and isinstance(p.get("center"), list | tuple)]
+    # a probe's phi is in the same (mistaken) unit as the angle: compare it as given
+    points += [(f"probes.{i}", (0.0, math.cos(math.radians(phi)), math.sin(math.radians(phi))))
+               for i, (_, phi) in enumerate(probes)]
+    text = angle_unit_error(math.degrees(shell.alpha), math.degrees(shell.beta), points)
+    if text:
+        raise InputError("shell.angle", text)
+
+
 def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
     """Validate a case given as a (TOML-shaped) dictionary; a relative mesh.file is read beside ``source``."""
     if not isinstance(data, dict):
@@ -359,6 +377,7 @@ def case_from_dict(data: dict, source: str | Path | None = None) -> Case:
     if supports.periodic and not shell.full:
         raise InputError("supports.phi_min", "'periodic' needs a full cylinder (shell.full = true)")
     probes = [(p["x"], p["phi"]) for p in CASE.key("probes").parse(data.get("probes", []), "probes")]
+    _check_angle_unit(shell, data, probes)
     for i, pr in enumerate(probes):
         _check_inside(shell, f"probes.{i}", *pr)
     solver = parse_solver(data.get("solver", {}))

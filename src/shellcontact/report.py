@@ -1,12 +1,13 @@
 """``report.html``: one self-contained page per run (figures embedded as base64 PNG), laid out as an
 engineering calculation.
 
-The page opens with the case in one paragraph (geometry, material, supports, loads, punches, mesh,
+The page opens with the warnings in a box (each with what to do about it: they change what every number
+means), then the case in one paragraph (geometry, material, supports, loads, punches, mesh,
 method), then a headline table of the results with their units (forces, travel, contact zone, peak
-pressure, deflection, von Mises stress and utilisation, equilibrium and KKT residuals), then the
-warnings in a box (each with what to do about it), then the figures, then the details: stresses,
-support reactions, equilibrium, probes, contact per punch, KKT residuals, solver, timings, the run,
-the inputs (every case-file key, ``--set`` overrides marked), versions and the full summary.json.
+pressure, deflection, von Mises stress and utilisation, equilibrium and KKT residuals), then the figures,
+then the details: stresses, support reactions, equilibrium, probes, contact per punch, KKT residuals,
+solver, timings, the run, the inputs (every case-file key, ``--set`` overrides marked),
+versions and the full summary.json.
 Numbers are printed with 6 significant digits (``{:.6g}``), the JSON verbatim; units are those of
 the case's ``[units] system`` (units.py). Long cells wrap: no table is wider than the page.
 """
@@ -25,6 +26,7 @@ from typing import Any
 
 from .files import atomic_write_text, json_text
 from .units import bracket, label, with_unit
+from .validity import message
 
 CSS = """
 body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; padding: 0 1em; color: #222;
@@ -146,8 +148,10 @@ def _warnings(s: Mapping[str, Any]) -> str:
     items = s.get("warnings") or []
     if not items:
         return ('<p class="ok">No warnings: every check of the result passed (KKT residuals, penalty ε, contact '
-                "outside the zones or between the constraint points, yield stress: where they apply).</p>")
-    li = "\n".join(f"<li>{html.escape(str(w))}</li>" for w in items)
+                "outside the zones or between the constraint points, the thin-shell and small-deflection range, "
+                "yield stress: where they apply).</p>")
+    # each {"code", "message"} (summary.json since the codes; older summaries hold plain strings)
+    li = "\n".join(f"<li>{html.escape(message(w))}</li>" for w in items)
     return f'<div class="warnings"><strong>{len(items)} warning{"s" * (len(items) != 1)}</strong><ul>{li}</ul></div>'
 
 
@@ -418,9 +422,9 @@ def render(
         ("energy" + bracket("energy", summary.get("unit_system", "SI")), summary.get("energy")),
     ]
     sections = [
+        ("Warnings", _warnings(summary)),  # first: they change what every number below means
         ("The case", _describe_case(case, summary) if case is not None else ""),
         ("Results", _headline(summary)),
-        ("Warnings", _warnings(summary)),
         ("Figures", "\n".join(image(n, b) for n, b in (figures or {}).items())),
         ("Details", "<p>Every number of the run, by topic; the full summary.json at the end.</p>"),
         ("Stresses (extremes per surface)", _stresses(summary), 3),
