@@ -48,7 +48,7 @@ from .solvers.substructure import MIN_UNKNOWNS
 from .spaces import ShellSpace
 from .supports import Reduction, edge_constrained_dofs
 from .units import summary_units, with_unit
-from .validity import ResultWarning, case_warnings, record, unit_hint_on_error
+from .validity import ResultWarning, case_warnings, equilibrium_warnings, floating_warnings, record, unit_hint_on_error
 
 KKT_KEYS = ("stationarity", "penetration", "dual_feasibility", "complementarity", "duality_gap")
 
@@ -345,13 +345,15 @@ class Result:
             why = (" (the penalty solution satisfies the contact conditions only to O(ε); the tolerance "
                    "applies to its penalised equation)" if cs.method == "penalty" else "")
             out.append(ResultWarning("kkt_residual", f"KKT: scaled residuals above the tolerance {tol:g}: {what}{why}"))
+        out += floating_warnings(self.case, self.info.get("rigid_motion"), self.contact.summary(), self.case.units)
         return out + self.contact.warnings(self.case.units)
 
     def _yield_warnings(self) -> list[str]:
         """Outside the linear thin-shell range: t/a, deflection/t, rotations, yield (``validity``)."""
         from .validity import range_warnings
 
-        return list(range_warnings(self.solution, self.stresses, self.case.yield_stress, self.case.units))
+        return (range_warnings(self.solution, self.stresses, self.case.yield_stress, self.case.units)
+                + equilibrium_warnings(self.equilibrium()["relative_residual"]))
 
     def summary(self) -> dict[str, Any]:
         sol = self.solution

@@ -92,7 +92,9 @@ SUPPORTS_TABLE = Table("supports", tuple(
 GRADING = Table("grading", (
     Key("x", "numbers", "focus points along x", unit="length", default=()),
     Key("phi", "numbers", "focus points along φ", angle=True, default=()),
-    Key("ratio", "number", "largest / smallest interval next to a focus point (1: uniform)", lo=1.0, default=1.0),
+    Key("ratio", "number", "largest / smallest interval next to a focus point (1: uniform); beyond 1000 the "
+        "slivers' stiffness (bending terms grow as the ratio⁴) loses every digit in the factorisation", lo=1.0,
+        hi=1000.0, default=1.0),
 ))
 
 MESH = Table("mesh", (

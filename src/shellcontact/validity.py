@@ -21,6 +21,8 @@ model holds":
   small rotations (sin β ≈ β to 0.2 %, 1 − cos β = 5e-3): beyond it moderate-rotation theories (Sanders–Koiter)
   apply whatever the strains.
 * ``yield_stress``: von Mises stress above ``[material] yield_stress``.
+* ``equilibrium``: the global balance's relative residual above ``EQUILIBRIUM_LIMIT`` = 1e-3
+  (``equilibrium_warnings``).
 
 Other layers' warnings (KKT, penalty, contact zones) carry their codes too (``ResultWarning``); a plain
 string keeps the code ``"general"``. summary.json holds each as ``{"code", "message"}``.
@@ -42,6 +44,7 @@ if TYPE_CHECKING:
 THICKNESS_RATIO_LIMIT = 1.0 / 20.0
 STRETCH_RATIO_LIMIT = 0.09
 ROTATION_LIMIT = 0.1  # rad
+EQUILIBRIUM_LIMIT = 1e-3
 
 
 class ResultWarning(str):
@@ -147,6 +150,40 @@ def range_warnings(solution: ShellSolution, stresses: Mapping[str, Mapping[str, 
                 f"{st['von_mises_max'] / yield_stress:.3g} x material.yield_stress; the stresses past yield are not "
                 "physical (reduce the load or indentation, or use a plastic analysis)"))
     return out
+
+
+def equilibrium_warnings(relative_residual: float) -> list[ResultWarning]:
+    """The global balance off by more than ``EQUILIBRIUM_LIMIT`` (``Result.equilibrium``): the residual is the
+    interpolation error of the rigid rotations, falling under refinement; above 1e-3 the reactions and contact
+    forces no longer balance the loads to the 3–4 digits the outputs print (the examples: at most 4.5e-4)."""
+    if relative_residual <= EQUILIBRIUM_LIMIT:
+        return []
+    return [ResultWarning(
+        "equilibrium", f"equilibrium: the forces on the shell balance only to {relative_residual:.2g} of the largest "
+        f"force (above {EQUILIBRIUM_LIMIT:g}): the rigid rotations are interpolated too coarsely for reactions and "
+        "contact forces to 3 digits; refine the mesh (mesh.nx, mesh.nphi or mesh.refine) where the shell turns")]
+
+
+def floating_warnings(case: Case, rigid_motion: Mapping[str, Any] | None, contact: list[Mapping[str, Any]],
+                      system: str = "SI") -> list[ResultWarning]:
+    """A shell held by contact alone whose punches prescribe their travel (indentation) and carry no force: the
+    shell moved with them as a rigid body. Zero is the model's right answer, but never what was meant."""
+    if not rigid_motion or not rigid_motion.get("restrained") or not contact:
+        return []
+    pushed = [p for p in case.punches if p.mode == "indentation" and p.indentation > 0.0]
+    if not pushed or any(p.mode == "force" for p in case.punches):
+        return []
+    t = case.shell.thickness if not callable(case.shell.thickness) else case.shell.radius * 1e-2
+    scale = case.shell.material.hoop_modulus * float(t) * max(p.indentation for p in pushed)  # E t δ: a force
+    total = sum(float(c.get("total_normal_force", 0.0)) for c in contact)
+    if total > 1e-12 * scale:
+        return []
+    keys = ", ".join(f"{p.where}.indentation" for p in pushed)
+    moved = ", ".join(rigid_motion["restrained"])
+    return [ResultWarning(
+        "rigid_push", f"the shell is held by nothing but its punches, and {keys} moved it as a rigid body ({moved}) "
+        f"with no contact force ({with_unit(f'{total:.3g}', 'force', system)}): hold it with supports or another "
+        f"punch, or push it with a force (punch.<i>.force) instead of an indentation")]
 
 
 # -- input in the wrong unit (issue 23: radians where degrees are expected, millimetres in an SI case) --------

@@ -55,6 +55,8 @@ EDGE_CONTACT_FRACTION = 1e-4  # a finite body's first contact this close (× zon
 #: at a + t/2 "overlapped" the ring example by 1.4e-17 m, and a fixed punch's zone tolerance (1e-3 × its
 #: overlap) was then 1.4e-20 m instead of following the shell's motion toward it (contact.contact_zone)
 TOUCH_ROUNDOFF = 1e-12
+#: the smallest indentation is this many times the gap's round-off (``_check_indentation_resolved``)
+INDENTATION_DIGITS = 1e3
 
 
 @dataclass
@@ -277,6 +279,21 @@ def _polish_minimum(punch: Punch, shell: Shell, x: float, phi: float, width: flo
     return float(punch.Z_on_body(M)[0]), c[0], c[1]
 
 
+def _check_indentation_resolved(depth: float, body, center: np.ndarray, shell: Shell, where: str) -> None:
+    """Refuse an indentation the gap cannot resolve: Z is known to ε·scale (``_check_resolution``) and an overlap
+    below ``TOUCH_ROUNDOFF``·a counts as touching, so 1e-15 m on the paper's panel gave a force 11 % off and
+    1e-16 m a force of 0. Above ``INDENTATION_DIGITS`` × that the force's relative error stays below 1e-3."""
+    if depth <= 0.0:
+        return
+    scale = max(float(np.linalg.norm(center)), float(body.size) if math.isfinite(body.size) else 0.0, shell.radius)
+    least = INDENTATION_DIGITS * max(float(np.finfo(float).eps) * scale, TOUCH_ROUNDOFF * shell.radius)
+    if depth < least:
+        raise InputError(f"{where}.indentation", f"{depth:.3g} (length) is below what the gap resolves: Z is known to "
+                         f"{np.finfo(float).eps * scale:.2g} (round-off at {scale:.3g} from the axis) and an overlap "
+                         f"below {TOUCH_ROUNDOFF * shell.radius:.2g} counts as touching, so the force would be "
+                         f"wrong; give 0 (just touching) or at least {least:.2g}")
+
+
 def check_linear_range(depth: float, shell: Shell, key: str, what: str) -> None:
     """Refuse a depth (an overlap, or a force-controlled punch's travel) beyond linear shell theory:
     more than ``OVERLAP_RADIUS_FRACTION`` × radius or ``OVERLAP_THICKNESSES`` thicknesses."""
@@ -333,6 +350,8 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
             Z = np.where(_foot_distance(body, spec.extent, X) <= 0.0, Z, np.inf)
         return Z, sgn * g
 
+    if mode == "indentation":
+        _check_indentation_resolved(spec.indentation, body, center, shell, where)
     if mode != "fixed":
         t0 = _touch_travel(punch, shell, body_Z, where)
         punch.touch_travel = t0
