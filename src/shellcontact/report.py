@@ -48,6 +48,8 @@ pre { background: #f7f7f7; padding: 0.8em; white-space: pre-wrap; overflow-wrap:
 .warnings { border: 2px solid #c60; background: #fff4e5; padding: 0.4em 1em; margin: 1em 0; }
 .warnings li { margin: 0.3em 0; }
 .ok { color: #2a6; }
+body.wide { max-width: 1360px; } .scroll { overflow-x: auto; max-width: 100%; }
+table.study { font-size: 0.8em; } table.study th { overflow-wrap: normal; }
 """
 
 PACKAGES = ("shellcontact", "numpy", "scipy", "scikit-fem", "meshio", "matplotlib", "pypardiso")
@@ -470,17 +472,21 @@ def write_study_report(
     figures: Mapping[str, bytes] | None = None,
     about: Mapping[str, Any] | None = None,
     inputs: Mapping[str, Any] | None = None,
+    heads: Mapping[str, str] | None = None,
 ) -> Path:
-    """A self-contained page for a sweep or a convergence study: what was run, the table, the figures."""
+    """A self-contained page for a sweep or a convergence study: what was run, the table (``heads``: each
+    column's title with its unit), the figures. The page is 1360 px wide; a table wider still scrolls in its box."""
     cols: list[str] = []
     for r in rows:
         cols += [c for c in r if c not in cols]
+    titles = [(heads or {}).get(c, c).replace(".", ".\u200b").replace("_", "_\u200b") for c in cols]  # break points
+    results = table([[r.get(c) for c in cols] for r in rows], titles, "study")
     sections = [
         ("Study", table(list((about or {}).items()), ("", "value"))),
-        ("Results", table([[r.get(c) for c in cols] for r in rows], cols)),
+        ("Results", f'<div class="scroll">{results}</div>'),
         ("Figures", "\n".join(image(n, b) for n, b in (figures or {}).items())),
         ("Inputs", table(flatten(inputs or {}), ("key", "value"))),
         ("Versions", table(list(versions().items()), ("package", "version"))),
     ]
-    atomic_write_text(path, page(title, sections))
+    atomic_write_text(path, page(title, sections).replace("<body>", '<body class="wide">', 1))
     return Path(path)
