@@ -86,3 +86,23 @@ def test_a_sweep_table_fits_100_characters_and_its_report_has_units(tmp_path: Pa
     assert '<body class="wide">' in page and '<div class="scroll"><table class="study">' in page
     for head in ("force [N]", "peak_\u200bpressure [Pa]", "punch.\u200b0.\u200bindentation [m]"):
         assert f"<th>{head}</th>" in page
+
+
+def test_deformed_png_keeps_axis_labels_off_the_tick_labels_and_drops_a_speck_of_contact() -> None:
+    """deformed.png of the paper's panel: the X, Y and Z labels overlapped tick labels, and a second panel
+    coloured by a contact pressure on 1 % of the shell was nearly empty (pressure.png shows the patch)."""
+    import shellcontact as sc
+
+    result = sc.solve(sc.load_case(ROOT / "examples" / "paper_panel.toml", ["mesh.nx=16", "mesh.nphi=16"]))
+    fig = result.plot_deformed()
+    panels = [ax for ax in fig.axes if ax.name == "3d"]
+    assert len(panels) == 1
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for axis in (panels[0].xaxis, panels[0].yaxis, panels[0].zaxis):
+        label = axis.label.get_window_extent(renderer)
+        ticks = [t.get_window_extent(renderer) for t in axis.get_ticklabels() if t.get_text()]
+        assert ticks and not any(label.overlaps(t) for t in ticks), axis.label.get_text()

@@ -26,7 +26,6 @@ from typing import Any
 
 from .files import atomic_write_text, json_text
 from .units import bracket, label, with_unit
-from .validity import message
 
 CSS = """
 body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; padding: 0 1em; color: #222;
@@ -153,7 +152,7 @@ def _warnings(s: Mapping[str, Any]) -> str:
                 "outside the zones or between the constraint points, the thin-shell and small-deflection range, "
                 "yield stress: where they apply).</p>")
     # each {"code", "message"} (summary.json since the codes; older summaries hold plain strings)
-    li = "\n".join(f"<li>{html.escape(message(w))}</li>" for w in items)
+    li = "\n".join(f"<li>{html.escape(w if isinstance(w, str) else str(w.get('message', '')))}</li>" for w in items)
     return f'<div class="warnings"><strong>{len(items)} warning{"s" * (len(items) != 1)}</strong><ul>{li}</ul></div>'
 
 
