@@ -474,7 +474,7 @@ def discretize(case: Case, contact_points: str = SolverOptions.contact_points, t
     timer = timer or Timer()
     with timer.stage("mesh"):
         if punches is None:
-            punches = place_punches(case.punches, case.shell)
+            punches = place_punches(case.punches, case.shell, case.units)
         space = ShellSpace(case_mesh(case, punches))
     with timer.stage("assembly"):
         A = model.stiffness(space)
@@ -509,7 +509,7 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     timer = Timer()
     with unit_hint_on_error(case):
         with timer.stage("mesh"):
-            punches = place_punches(case.punches, case.shell)
+            punches = place_punches(case.punches, case.shell, case.units)
             check_size(case, punches, max_memory, opts.method, opts.backend)
         d = discretize(case, opts.contact_points, timer, punches)
         return solve_discretized(case, d, opts, timer, warm_start=warm_start, progress=progress,
@@ -629,7 +629,8 @@ def contact_result(case: Case, d: Discretization, opts: SolverOptions, timer: Ti
         delta, alpha = (cs.delta[:kf] if kf else None), cs.delta[kf:]
         for j, k in enumerate(op.force_punches):  # the same linear-theory range as an indentation
             check_linear_range(float(delta[j]), case.shell, f"punch.{k}.force",
-                               f"the force {op.forces[j]:.4g} moves the punch past first contact by")
+                               f"the force {with_unit(f'{op.forces[j]:.4g}', 'force', case.units)} moves the "
+                               "punch past first contact by", case.units)
     with timer.stage("postprocess"):  # the gaps everywhere, penetration checks outside the rows
         U = red.expand(cs.U)
         rigid = None

@@ -924,7 +924,7 @@ def _check_finest(case: Case, refine: int, max_memory: float | str | None) -> No
 
     finest = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, refine=refine))
     try:
-        check_size(finest, place_punches(case.punches, case.shell), max_memory,
+        check_size(finest, place_punches(case.punches, case.shell, case.units), max_memory,
                    what=f"the finest level (refine {refine})")
     except InputError as exc:
         raise InputError("--levels", f"{exc.message} (or fewer --levels)") from None

@@ -40,6 +40,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry import Shell, frame
+from ..units import with_unit
 from .extent import Extent
 from .shapes import Custom
 from .spec import PunchSpec, parse_punch
@@ -279,7 +280,12 @@ def _polish_minimum(punch: Punch, shell: Shell, x: float, phi: float, width: flo
     return float(punch.Z_on_body(M)[0]), c[0], c[1]
 
 
-def _check_indentation_resolved(depth: float, body, center: np.ndarray, shell: Shell, where: str) -> None:
+def _length(value: float, units: str, spec: str = ".4g") -> str:
+    return with_unit(format(value, spec), "length", units)
+
+
+def _check_indentation_resolved(depth: float, body, center: np.ndarray, shell: Shell, where: str,
+                                units: str = "SI") -> None:
     """Refuse an indentation the gap cannot resolve: Z is known to ε·scale (``_check_resolution``) and an overlap
     below ``TOUCH_ROUNDOFF``·a counts as touching, so 1e-15 m on the paper's panel gave a force 11 % off and
     1e-16 m a force of 0. Above ``INDENTATION_DIGITS`` × that the force's relative error stays below 1e-3."""
@@ -288,13 +294,15 @@ def _check_indentation_resolved(depth: float, body, center: np.ndarray, shell: S
     scale = max(float(np.linalg.norm(center)), float(body.size) if math.isfinite(body.size) else 0.0, shell.radius)
     least = INDENTATION_DIGITS * max(float(np.finfo(float).eps) * scale, TOUCH_ROUNDOFF * shell.radius)
     if depth < least:
-        raise InputError(f"{where}.indentation", f"{depth:.3g} (length) is below what the gap resolves: Z is known to "
-                         f"{np.finfo(float).eps * scale:.2g} (round-off at {scale:.3g} from the axis) and an overlap "
-                         f"below {TOUCH_ROUNDOFF * shell.radius:.2g} counts as touching, so the force would be "
-                         f"wrong; give 0 (just touching) or at least {least:.2g}")
+        eps = float(np.finfo(float).eps)
+        raise InputError(f"{where}.indentation", f"{_length(depth, units, '.3g')} is below what the gap resolves: Z "
+                         f"is known to {_length(eps * scale, units, '.2g')} (round-off at "
+                         f"{_length(scale, units, '.3g')} from the axis) and an overlap below "
+                         f"{_length(TOUCH_ROUNDOFF * shell.radius, units, '.2g')} counts as touching, so the force "
+                         f"would be wrong; give 0 (just touching) or at least {_length(least, units, '.2g')}")
 
 
-def check_linear_range(depth: float, shell: Shell, key: str, what: str) -> None:
+def check_linear_range(depth: float, shell: Shell, key: str, what: str, units: str = "SI") -> None:
     """Refuse a depth (an overlap, or a force-controlled punch's travel) beyond linear shell theory:
     more than ``OVERLAP_RADIUS_FRACTION`` × radius or ``OVERLAP_THICKNESSES`` thicknesses."""
     tmax = float(
@@ -303,19 +311,21 @@ def check_linear_range(depth: float, shell: Shell, key: str, what: str) -> None:
     if depth > OVERLAP_RADIUS_FRACTION * shell.radius:
         raise InputError(
             key,
-            f"{what} {depth:.4g}, more than {OVERLAP_RADIUS_FRACTION} x radius = "
-            f"{OVERLAP_RADIUS_FRACTION * shell.radius:.4g}: far beyond a linear shell",
+            f"{what} {_length(depth, units)}, more than {OVERLAP_RADIUS_FRACTION} x radius = "
+            f"{_length(OVERLAP_RADIUS_FRACTION * shell.radius, units)}: far beyond a linear shell",
         )
     if depth > OVERLAP_THICKNESSES * tmax:
         raise InputError(
             key,
-            f"{what} {depth:.4g}, more than {OVERLAP_THICKNESSES:g} thicknesses ({OVERLAP_THICKNESSES * tmax:.4g}): "
+            f"{what} {_length(depth, units)}, more than {OVERLAP_THICKNESSES:g} thicknesses "
+            f"({_length(OVERLAP_THICKNESSES * tmax, units)}): "
             "far beyond a linear shell",
         )
 
 
-def place(spec: PunchSpec, shell: Shell) -> Punch:
-    """The punch of ``spec`` at its final position on ``shell`` (see the module docstring)."""
+def place(spec: PunchSpec, shell: Shell, units: str = "SI") -> Punch:
+    """The punch of ``spec`` at its final position on ``shell`` (see the module docstring); lengths in messages
+    labelled in the unit system ``units``."""
     where, body, mode = spec.where, spec.body, spec.mode
     if isinstance(body, Custom):
         _check_custom(body, shell)
@@ -351,7 +361,7 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
         return Z, sgn * g
 
     if mode == "indentation":
-        _check_indentation_resolved(spec.indentation, body, center, shell, where)
+        _check_indentation_resolved(spec.indentation, body, center, shell, where, units)
     if mode != "fixed":
         t0 = _touch_travel(punch, shell, body_Z, where)
         punch.touch_travel = t0
@@ -367,7 +377,7 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
     punch.min_gap, punch.first_contact = zmin, (xm, pm)
     punch.overlap = -zmin if -zmin > TOUCH_ROUNDOFF * shell.radius else 0.0
     check_linear_range(punch.overlap, shell, f"{where}.indentation" if mode == "indentation" else where,
-                       "the punch overlaps the undeformed shell by")
+                       "the punch overlaps the undeformed shell by", units)
     gap = spec.zone_gap if spec.zone_gap is not None else max(
         ZONE_OVERLAP_FACTOR * punch.overlap, ZONE_SIZE_FRACTION * size)
     zone = given or automatic_zone(lambda M: punch.Z(M)[0], shell, punch.side_sign, gap, punch.first_contact, zmin)
@@ -382,8 +392,9 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
         x, p = punch.first_contact
         raise InputError(
             where,
-            f"the punch does not touch the {spec.side} surface of the shell: smallest gap {zmin:.4g} (at "
-            f"x = {x:.6g}, phi = {math.degrees(p):.6g} deg) is not below the zone threshold {gap:.4g}; "
+            f"the punch does not touch the {spec.side} surface of the shell: smallest gap {_length(zmin, units)} "
+            f"(at x = {_length(x, units, '.6g')}, phi = {math.degrees(p):.6g} deg) is not below the zone threshold "
+            f"{_length(gap, units)}; "
             "move it or give 'indentation' or 'force'",
         )
     punch.zone = zone
@@ -391,9 +402,9 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
     return punch
 
 
-def place_punches(specs: Sequence[PunchSpec], shell: Shell) -> list[Punch]:
-    """Every punch of a case, placed."""
-    return [place(s, shell) for s in specs]
+def place_punches(specs: Sequence[PunchSpec], shell: Shell, units: str = "SI") -> list[Punch]:
+    """Every punch of a case, placed (``units``: the case's system, for the lengths in messages)."""
+    return [place(s, shell, units) for s in specs]
 
 
 def punch_from_dict(raw: dict, shell: Shell, index: int = 0) -> Punch:
