@@ -106,3 +106,20 @@ def test_deformed_png_keeps_axis_labels_off_the_tick_labels_and_drops_a_speck_of
         label = axis.label.get_window_extent(renderer)
         ticks = [t.get_window_extent(renderer) for t in axis.get_ticklabels() if t.get_text()]
         assert ticks and not any(label.overlaps(t) for t in ticks), axis.label.get_text()
+
+
+def test_the_demo_table_fits_100_characters_on_the_console() -> None:
+    """The demo's comparison (a Markdown table of 13 columns, 160 characters; comparison.md keeps it whole) is
+    printed in blocks of columns led by the method, each line at most 100 characters, no column lost."""
+    from shellcontact.demo import COLUMNS, format_table
+    from shellcontact.tables import split_markdown
+
+    rows = [{key: (method if key == "method" else 12 if "d}" in fmt else 1.234567e-5) for key, _, _, fmt in COLUMNS}
+            for method in ("penalty", "active-set", "dual")]
+    table = format_table(rows)
+    assert max(len(line) for line in table.splitlines()) > 100
+    console = split_markdown(table)
+    assert max(len(line) for line in console.splitlines()) <= 100
+    for title in table.splitlines()[0].strip("| ").split(" | "):
+        assert title.strip() in console
+    assert console.count("| active-set |") == console.count("|     method |") >= 2
