@@ -25,8 +25,9 @@ opposite the body (``zones.body_zone``), so the body's edges become zone edges a
 Refused (InputError naming the key): a zone outside Ω or empty, a punch that never touches the
 shell moving along ``direction``, a punch whose smallest gap over its zone is not below g, an
 overlap larger than the shell can take (> 0.2·a, or > 10·t: far outside linear shell theory), a
-body whose extent faces no point of the contact surface in the zone, and a custom function that
-raises, returns wrong shapes or non-finite values on the shell.
+body whose extent faces no point of the contact surface in the zone, a custom function that
+raises, returns wrong shapes or non-finite values on the shell, and an indentation between 0 and
+``INDENTATION_DIGITS`` × the gap's round-off (1e-9 m on the paper's panel: the force would be wrong).
 """
 
 from __future__ import annotations
