@@ -98,7 +98,7 @@ BAD = [
     ("mesh.refine", -1, "mesh.refine", ">= 0"),
     ("mesh.pattern", "zigzag", "mesh.pattern", "alternate"),
     ("mesh.grading", {"x": [0.0], "ratios": 2.0}, "mesh.grading.ratios", "did you mean 'ratio'"),
-    ("mesh.grading", {"x": [0.0], "ratio": 0.5}, "mesh.grading.ratio", ">= 1"),
+    ("mesh.grading", {"x": [0.0], "ratio": 0.5}, "mesh.grading.ratio", "in [1, 1000]"),
     ("mesh.nxx", 4, "mesh.nxx", "did you mean 'nx'"),
     ("loads.surface", [0.0, 1.0], "loads.surface", "list of 3"),
     ("loads.normal", "high", "loads.normal", "must be a number"),

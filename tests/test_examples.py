@@ -169,7 +169,7 @@ def test_band_clamp():
     N = c["total_normal_force"]
     raw = res.case.raw
     a, t, half = raw["shell"]["radius"], raw["shell"]["thickness"], raw["shell"]["length"] / 2
-    radius, band = raw["punch"][0]["radius"], raw["punch"][0]["zone"]["x"][1]
+    radius, band = raw["punch"][0]["radius"], raw["punch"][0]["extent"]["x"][1]
     interference = a + t / 2 - radius
     assert N > 0 and c["force_magnitude"] <= 1e-9 * N
     # symmetry plane at x = 0, clamped flange at x = half: the half band carries half the force

@@ -67,9 +67,10 @@ def test_report_fits_1200px_and_shows_every_figure(tmp_path: Path) -> None:
     write_outputs(result, tmp_path / "out", summary)
     report = tmp_path / "out" / "report.html"
     text = report.read_text()
-    # the order of an engineering calculation: case, results, warnings, figures, details
-    heads = [text.index(f"<h2>{h}</h2>") for h in ("The case", "Results", "Warnings", "Figures", "Details")]
-    assert heads == sorted(heads) and 'class="warnings"' in text[heads[2]:heads[3]]
+    # warnings first (they change what every number means), then an engineering calculation: case, results,
+    # figures, details
+    heads = [text.index(f"<h2>{h}</h2>") for h in ("Warnings", "The case", "Results", "Figures", "Details")]
+    assert heads == sorted(heads) and 'class="warnings"' in text[heads[0]:heads[1]]
     m = measure(report, tmp_path / "profile")
     assert m["scrollWidth"] <= m["clientWidth"], m
     assert not m["wide"], m

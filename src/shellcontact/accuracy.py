@@ -33,6 +33,7 @@ from typing import Any
 
 from .arguments import expect_callable, expect_integer
 from .errors import InputError, ShellContactError
+from .validity import ResultWarning, record
 
 #: the headline quantities by summary path (``*``: every list index or key), each with the numbers its relative
 #: error is measured against besides its own size: (path, factor) pairs, the path's indices those of the
@@ -248,7 +249,7 @@ class Estimate:
         s["accuracy"] = acc
         s["refinement"] = {"ratio": RATIO, "tolerance": self.tolerance, "stopped": self.stopped,
                            "levels": self.levels}
-        s["warnings"] = list(s.get("warnings", [])) + self.warnings()
+        s["warnings"] = list(s.get("warnings", [])) + [record(ResultWarning("accuracy", w)) for w in self.warnings()]
         return s
 
 

@@ -47,7 +47,8 @@ from .solvers.screening import coarse_start_pays, factorize_screened, solve_scre
 from .solvers.substructure import MIN_UNKNOWNS
 from .spaces import ShellSpace
 from .supports import Reduction, edge_constrained_dofs
-from .units import summary_units
+from .units import summary_units, with_unit
+from .validity import ResultWarning, case_warnings, equilibrium_warnings, floating_warnings, record, unit_hint_on_error
 
 KKT_KEYS = ("stationarity", "penetration", "dual_feasibility", "complementarity", "duality_gap")
 
@@ -129,8 +130,9 @@ def check_penalty(case: Case, eps: float, continuation: tuple[float, ...] = ()) 
                                  f"{between(PENALTY_REFUSE)} (default {default_penalty(case):.3g})")
     kappa, err = error(eps)
     if err > PENALTY_WARN:
-        return [f"solver.penalty: ε = {eps:.4g} (κ = ε·E₂t/a² = {kappa:.3g}) predicts a relative force error of "
-                f"about {err:.2g} (κ + ε_mach/κ); {between(PENALTY_WARN)} it stays below {PENALTY_WARN:g}"]
+        return [ResultWarning(
+            "penalty_accuracy", f"solver.penalty: ε = {eps:.4g} (κ = ε·E₂t/a² = {kappa:.3g}) predicts a relative "
+            f"force error of about {err:.2g} (κ + ε_mach/κ); {between(PENALTY_WARN)} it stays below {PENALTY_WARN:g}")]
     return []
 
 
@@ -192,18 +194,17 @@ class ContactResult:
                 entry["rim"] = rim
         return out
 
-    def warnings(self) -> list[str]:
-        """Contact beyond a candidate zone: the zone was too small and must be widened."""
+    def warnings(self, units: str = "SI") -> list[str]:
+        """Contact beyond a candidate zone: the zone was too small and must be widened (lengths in ``units``)."""
         scale = max(float(np.max(np.abs(self.operator.G), initial=0.0)), 1e-300)
-        out = [
-            f"punch.{k}: the shell penetrates the punch by {pen:.3e} outside its candidate zone; "
-            f"widen punch.{k}.zone" for k, pen in enumerate(self.outside) if pen > 1e-8 * scale
-        ]
-        out += [
-            f"punch.{k}: the shell penetrates the punch by {pen:.3e} between the constraint points "
-            f"({pen / scale:.1%} of the overlap); set solver.contact_points = 'vertices+midpoints' or refine"
-            for k, pen in enumerate(self.between) if pen > 1e-2 * scale
-        ]
+        length = with_unit("", "length", units).strip()  # the label after each number (none: "")
+        out = [ResultWarning(
+            "contact_outside_zone", f"punch.{k}: the shell penetrates the punch by {pen:.3e} {length} outside its "
+            f"candidate zone; widen punch.{k}.zone") for k, pen in enumerate(self.outside) if pen > 1e-8 * scale]
+        out += [ResultWarning(
+            "contact_between_points", f"punch.{k}: the shell penetrates the punch by {pen:.3e} {length} between the "
+            f"constraint points ({pen / scale:.1%} of the overlap); set solver.contact_points = "
+            "'vertices+midpoints' or refine") for k, pen in enumerate(self.between) if pen > 1e-2 * scale]
         return out
 
 
@@ -333,7 +334,7 @@ class Result:
         """What the user must know about this result: a penalty parameter outside its accurate range,
         KKT residuals above the requested tolerance, contact beyond the candidate zones or between the
         constraint points, stresses beyond ``[material] yield_stress``."""
-        out = list(self.info.get("warnings", [])) + self._yield_warnings()
+        out = case_warnings(self.case) + list(self.info.get("warnings", [])) + self._yield_warnings()
         if self.contact is None:
             return out
         cs, tol = self.contact.solution, self.info.get("tolerance")
@@ -343,21 +344,16 @@ class Result:
             what = ", ".join(f"{k} {v:.2e}" for k, v in above.items())
             why = (" (the penalty solution satisfies the contact conditions only to O(ε); the tolerance "
                    "applies to its penalised equation)" if cs.method == "penalty" else "")
-            out.append(f"KKT: scaled residuals above the tolerance {tol:g}: {what}{why}")
-        return out + self.contact.warnings()
+            out.append(ResultWarning("kkt_residual", f"KKT: scaled residuals above the tolerance {tol:g}: {what}{why}"))
+        out += floating_warnings(self.case, self.info.get("rigid_motion"), self.contact.summary(), self.case.units)
+        return out + self.contact.warnings(self.case.units)
 
     def _yield_warnings(self) -> list[str]:
-        y = self.case.yield_stress
-        if y is None:
-            return []
-        name, s = max(self.stresses.items(), key=lambda kv: kv[1]["von_mises_max"])
-        if s["utilisation_max"] <= 1.0:
-            return []
-        return [f"linear elastic result beyond yield: von Mises stress {s['von_mises_max']:.4g} on the {name} "
-                f"surface at x = {s['at']['x']:.4g}, phi = {s['at']['phi']:.4g} deg is {s['utilisation_max']:.3g} "
-                "x material.yield_stress; the stresses past yield are not physical (reduce the load or "
-                "indentation, or use a plastic analysis)"]
+        """Outside the linear thin-shell range: t/a, deflection/t, rotations, yield (``validity``)."""
+        from .validity import range_warnings
 
+        return (range_warnings(self.solution, self.stresses, self.case.yield_stress, self.case.units)
+                + equilibrium_warnings(self.equilibrium()["relative_residual"]))
 
     def summary(self) -> dict[str, Any]:
         sol = self.solution
@@ -389,7 +385,7 @@ class Result:
                 out["penalty"] = self.info["penalty"]
             if "rigid_motion" in self.info:
                 out["rigid_motion"] = self.info["rigid_motion"]
-        out["warnings"] = self.warnings()
+        out["warnings"] = [record(w) for w in self.warnings()]  # {"code", "message"} (validity.py)
         out["backend"] = self.info.get("backend")
         out["timings"] = dict(self.timings)
         out["unit_system"] = self.case.units
@@ -478,7 +474,7 @@ def discretize(case: Case, contact_points: str = SolverOptions.contact_points, t
     timer = timer or Timer()
     with timer.stage("mesh"):
         if punches is None:
-            punches = place_punches(case.punches, case.shell)
+            punches = place_punches(case.punches, case.shell, case.units)
         space = ShellSpace(case_mesh(case, punches))
     with timer.stage("assembly"):
         A = model.stiffness(space)
@@ -511,11 +507,13 @@ def solve(case: Case, method: str | None = None, backend: str | None = None,
     if backend is not None:
         opts = dataclasses.replace(opts, backend=backend)
     timer = Timer()
-    with timer.stage("mesh"):
-        punches = place_punches(case.punches, case.shell)
-        check_size(case, punches, max_memory, opts.method, opts.backend)
-    d = discretize(case, opts.contact_points, timer, punches)
-    return solve_discretized(case, d, opts, timer, warm_start=warm_start, progress=progress, max_memory=max_memory)
+    with unit_hint_on_error(case):
+        with timer.stage("mesh"):
+            punches = place_punches(case.punches, case.shell, case.units)
+            check_size(case, punches, max_memory, opts.method, opts.backend)
+        d = discretize(case, opts.contact_points, timer, punches)
+        return solve_discretized(case, d, opts, timer, warm_start=warm_start, progress=progress,
+                                 max_memory=max_memory)
 
 
 class Factorizer:
@@ -636,7 +634,8 @@ def contact_result(case: Case, d: Discretization, opts: SolverOptions, timer: Ti
         delta, alpha = (cs.delta[:kf] if kf else None), cs.delta[kf:]
         for j, k in enumerate(op.force_punches):  # the same linear-theory range as an indentation
             check_linear_range(float(delta[j]), case.shell, f"punch.{k}.force",
-                               f"the force {op.forces[j]:.4g} moves the punch past first contact by")
+                               f"the force {with_unit(f'{op.forces[j]:.4g}', 'force', case.units)} moves the "
+                               "punch past first contact by", case.units)
     with timer.stage("postprocess"):  # the gaps everywhere, penetration checks outside the rows
         U = red.expand(cs.U)
         rigid = None
@@ -708,7 +707,7 @@ def _check_summary(result: Result, summary: dict[str, Any]) -> None:
     if bad:
         raise SolverError(f"non-finite result: {', '.join(bad[:8])}{' …' if len(bad) > 8 else ''}")
     for w in summary["warnings"]:
-        log.warning("warning: %s", w)
+        log.warning("warning: %s", w["message"])
 
 
 def _penetration_between(space: ShellSpace, punches: list[Punch], points: str, U: np.ndarray,

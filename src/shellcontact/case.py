@@ -36,6 +36,7 @@ from .solvers.methods import METHODS
 from .supports import SUPPORTS, Supports
 from .units import SYSTEMS
 from .user_functions import CodeConsent, code_consent, consent_for, current_consent
+from .validity import angle_unit_error
 
 _NUMBER_OR_FUNCTION = "string `\"module:function\"`: a function t(x, phi) (NumPy, φ in radians)"
 #: the allowed column of every modulus (material.check_stiffness_range)
@@ -92,7 +93,9 @@ SUPPORTS_TABLE = Table("supports", tuple(
 GRADING = Table("grading", (
     Key("x", "numbers", "focus points along x", unit="length", default=()),
     Key("phi", "numbers", "focus points along φ", angle=True, default=()),
-    Key("ratio", "number", "largest / smallest interval next to a focus point (1: uniform)", lo=1.0, default=1.0),
+    Key("ratio", "number", "largest / smallest interval next to a focus point (1: uniform); beyond 1000 the "
+        "slivers' stiffness (bending terms grow as the ratio⁴) loses every digit in the factorisation", lo=1.0,
+        hi=1000.0, default=1.0),
 ))
 
 MESH = Table("mesh", (
@@ -342,6 +345,23 @@ def _check_mesh_lines(shell: Shell, ms: MeshSpec) -> None:
                 raise InputError(key, f"{math.degrees(v):.6g} deg lies outside [{lo:.6g}, {hi:.6g}] deg")
 
 
+def _check_angle_unit(shell: Shell, data: dict, probes: list[tuple[float, float]]) -> None:
+    """``shell.angle`` in radians where degrees are expected, recognised by the punch centres and probes that
+    lie between its numbers read as radians (validity.angle_unit_error), named before it fails as a probe
+    outside the shell or an empty admissible set."""
+    if shell.full:
+        return
+    raw = data.get("punch", [])
+    points = [(f"punch.{k}'s centre", tuple(p["center"])) for k, p in enumerate(raw if isinstance(raw, list) else [])
+              if isinstance(p, dict) and isinstance(p.get("center"), list | tuple)]
+    # a probe's phi is in the same (mistaken) unit as the angle: compare it as given
+    points += [(f"probes.{i}", (0.0, math.cos(math.radians(phi)), math.sin(math.radians(phi))))
+               for i, (_, phi) in enumerate(probes)]
+    text = angle_unit_error(math.degrees(shell.alpha), math.degrees(shell.beta), points)
+    if text:
+        raise InputError("shell.angle", text)
+
+
 def case_from_dict(data: dict, source: str | Path | None = None, *, allow_code: bool = False,
                    allow_modules: Iterable[str] = ()) -> Case:
     """Validate a case given as a (TOML-shaped) dictionary; a relative mesh.file is read beside ``source``.
@@ -375,6 +395,7 @@ def _case_from_dict(data: dict, source: str | Path | None, consent: CodeConsent 
     if supports.periodic and not shell.full:
         raise InputError("supports.phi_min", "'periodic' needs a full cylinder (shell.full = true)")
     probes = [(p["x"], p["phi"]) for p in CASE.key("probes").parse(data.get("probes", []), "probes")]
+    _check_angle_unit(shell, data, probes)
     for i, pr in enumerate(probes):
         _check_inside(shell, f"probes.{i}", *pr)
     solver = parse_solver(data.get("solver", {}))

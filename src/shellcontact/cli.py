@@ -91,11 +91,21 @@ def _print_summary(con: Console, s: dict) -> None:
         e = acc.get(path, {}).get("estimate")  # with --estimate its estimated relative error)
         return with_unit(format(value, spec), kind, system) + (f" (±{100 * e:.2g} %)" if e is not None else "")
 
-    con.print(f"dofs {s['dofs']}  elements {s['elements']}  energy {q(s['energy'], 'energy')}  "
-              f"max|w| {q(s['max_abs_w'], 'length', path='max_abs_w')}")
+    def say(head: str, parts: list[str]) -> None:  # console lines of at most CONSOLE_WIDTH characters
+        lines, fresh = [head], not head
+        for part in parts:
+            if not fresh and len(lines[-1]) + 2 + len(part) > CONSOLE_WIDTH:
+                lines.append("    ")
+                fresh = True
+            lines[-1] += ("" if fresh else " " if lines[-1].endswith(":") else "  ") + part
+            fresh = False
+        con.print("\n".join(lines))
+
+    say("", [f"dofs {s['dofs']}", f"elements {s['elements']}", f"energy {q(s['energy'], 'energy')}",
+             f"max|w| {q(s['max_abs_w'], 'length', path='max_abs_w')}"])
     for j, p in enumerate(s.get("probes", [])):
-        con.print(f"probe x={q(p['x'], 'length', 'g')} phi={p['phi']:g} deg: "
-                  + "  ".join(f"{k}={q(p[k], 'length', path=f'probes.{j}.{k}')}" for k in ("u", "v", "w")))
+        say(f"probe x={q(p['x'], 'length', 'g')} phi={p['phi']:g} deg:",
+            [f"{k}={q(p[k], 'length', path=f'probes.{j}.{k}')}" for k in "uvw"])
     contact = s.get("contact")
     if contact:
         for i, c in enumerate(contact if isinstance(contact, list) else [contact]):
@@ -113,7 +123,7 @@ def _print_summary(con: Console, s: dict) -> None:
                 name = "line load" if rim.get("kind") == "line" else "rim line force (mean)"
                 value = q(rim["mean_line_force"], "force/length", path=f"contact.{i}.rim.mean_line_force")
                 parts.append(f"{name} {value}")
-            con.print(f"punch {i}: " + "  ".join(parts))
+            say(f"punch {i}:", parts)
     st = s.get("stresses")
     if st:
         name, worst = max(st.items(), key=lambda kv: kv[1]["von_mises_max"])
@@ -122,15 +132,16 @@ def _print_summary(con: Console, s: dict) -> None:
                   f"({name} surface, x={q(worst['at']['x'], 'length', '.4g')} phi={worst['at']['phi']:.4g} deg){util}")
     eq = s.get("equilibrium")
     if eq:
-        terms = "  ".join(f"{k} {_vec(eq[k]['force'])}" for k in ("applied", "contact", "reactions") if k in eq)
-        con.print(f"equilibrium, forces{bracket('force', system)}: {terms}  residual {_vec(eq['residual']['force'])} "
-                  f"(relative {eq['relative_residual']:.1e})")
+        terms = [f"{k} {_vec(eq[k]['force'])}" for k in ("applied", "contact", "reactions") if k in eq]
+        say(f"equilibrium, forces{bracket('force', system)}:", [*terms, f"residual {_vec(eq['residual']['force'])} "
+                                                               f"(relative {eq['relative_residual']:.1e})"])
     kkt = s.get("kkt")
     if isinstance(kkt, dict) and kkt:
-        con.print("KKT residuals: " + "  ".join(
-            f"{k} {q(v, _KKT_KINDS.get(k, 'strain'), '.3e')}" for k, v in kkt.items() if isinstance(v, float)))
+        say("KKT residuals:", [f"{k} {q(v, _KKT_KINDS.get(k, 'strain'), '.3e')}" for k, v in kkt.items()
+                               if isinstance(v, float)])
 
 
+CONSOLE_WIDTH = 100  # the summary's lines wrap here (issue 23: 219 characters)
 #: the kind of each unscaled KKT residual (solvers/kkt.py); the others are relative
 _KKT_KINDS = {"penetration": "length", "dual_feasibility": "force"}
 

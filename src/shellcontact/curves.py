@@ -96,7 +96,7 @@ def family_key(case: Case) -> str:
     ``[units]`` are not part of it (each Result keeps its own case). A shell or load given by a Python
     function enters by its identity, so such keys agree only within one process."""
     expect_case(case, "family_key")
-    return _key(case, place_punches(case.punches, case.shell))
+    return _key(case, place_punches(case.punches, case.shell, case.units))
 
 
 def _key(case: Case, punches: Sequence[Punch]) -> str:
@@ -311,7 +311,7 @@ def solve_family(cases: Sequence[Case], *, method: str | None = None, backend: s
     expect_callable(progress, "solve_family", "progress")
     if not isinstance(warm_start, bool):
         raise TypeError(f"solve_family(): warm_start must be True or False, got {type(warm_start).__name__}")
-    placed = [place_punches(c.punches, c.shell) for c in cases]
+    placed = [place_punches(c.punches, c.shell, c.units) for c in cases]
     keys = [_key(c, p) for c, p in zip(cases, placed)]
     for i, k in enumerate(keys):
         if k != keys[0]:

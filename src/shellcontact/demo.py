@@ -17,6 +17,7 @@ from .analysis import Result, solve
 from .case import load_case
 from .files import atomic_write_text, write_json
 from .outputs import write_run_files
+from .tables import split_markdown
 from .transaction import replace_dir
 from .units import bracket, label
 
@@ -87,7 +88,7 @@ def run_demo(output_dir: str | Path = "demo-out", quiet: bool = False, *, overwr
     compliance = label("length/pressure", system)
     if not quiet:
         print("")
-        print(table)
+        print(split_markdown(table))  # comparison.md keeps the table whole
         print(f"\n||U_primal - U_dual||/||U|| = {agreement['primal_vs_dual']:.2e}; "
               f"penalty (eps = {eps:.3g} {compliance}) differs by {agreement['primal_vs_penalty']:.2e}")
         print(f"wrote {out}/ (comparison.md, and per method: summary.json, fields.vtu, results.npz; "

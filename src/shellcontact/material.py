@@ -44,6 +44,10 @@ def _positive(name: str, value: float) -> float:
 #: and covers every consistent unit system (steel: E·t = 2e9 N/m, E·t³ = 2e5 N·m in SI, 2e3 N/mm and
 #: 2e5 N·mm in mm).
 STIFFNESS_RANGE = (1e-100, 1e100)
+#: an orthotropic Q whose constants differ by more than this factor (or with 1 − ν12ν21 below it) is refused:
+#: the shell's stiffness matrix already has a condition number of 1e8–1e10 (h⁻⁴, (a/t)²), and this would leave
+#: fewer than 2 of double precision's 16 digits (real composites: E1/E2 ≤ 50, G12/E1 ≥ 0.01)
+Q_CONDITION_MIN = 1e-6
 
 
 def check_stiffness_range(material: Material, t_min: float, t_max: float) -> None:
@@ -189,6 +193,20 @@ class Orthotropic(Material):
                 f"must satisfy nu12 * nu21 = nu12^2 e2/e1 < 1 (positive definiteness), i.e. "
                 f"|nu12| < sqrt(e1/e2) = {math.sqrt(e1 / e2):.6g}, got {nu!r}",
             )
+
+        # nearly singular Q: its smallest eigenvalue over its largest is lost to round-off in the stiffness
+        # (failing as a factorisation of "insufficient supports"): name the constant that makes it so
+        delta = 1.0 - nu * nu * e2 / e1
+        if delta < Q_CONDITION_MIN:
+            limit = math.sqrt((1 - Q_CONDITION_MIN) * e1 / e2)
+            raise InputError("material.nu12", f"{nu!r} gives 1 - nu12 nu21 = {delta:.3g}, below {Q_CONDITION_MIN:g}: "
+                             "the stiffness (proportional to 1/(1 - nu12 nu21)) is nearly singular and its digits are "
+                             f"lost in the factorisation; |nu12| must stay below {limit:.6g}")
+        for key, ratio in (("e2", e2 / e1), ("g12", self.g12 / max(e1, e2))):
+            if not Q_CONDITION_MIN <= ratio <= 1.0 / Q_CONDITION_MIN:
+                raise InputError(f"material.{key}", f"{getattr(self, key):.6g} is {ratio:.3g} x the largest modulus "
+                                 f"({max(e1, e2):.6g}): outside [{Q_CONDITION_MIN:g}, {1 / Q_CONDITION_MIN:g}], the "
+                                 "stiffness is nearly singular and its digits are lost in the factorisation")
 
     @property
     def nu21(self) -> float:

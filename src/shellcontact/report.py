@@ -1,12 +1,13 @@
 """``report.html``: one self-contained page per run (figures embedded as base64 PNG), laid out as an
 engineering calculation.
 
-The page opens with the case in one paragraph (geometry, material, supports, loads, punches, mesh,
+The page opens with the warnings in a box (each with what to do about it: they change what every number
+means), then the case in one paragraph (geometry, material, supports, loads, punches, mesh,
 method), then a headline table of the results with their units (forces, travel, contact zone, peak
-pressure, deflection, von Mises stress and utilisation, equilibrium and KKT residuals), then the
-warnings in a box (each with what to do about it), then the figures, then the details: stresses,
-support reactions, equilibrium, probes, contact per punch, KKT residuals, solver, timings, the run,
-the inputs (every case-file key, ``--set`` overrides marked), versions and the full summary.json.
+pressure, deflection, von Mises stress and utilisation, equilibrium and KKT residuals), then the figures,
+then the details: stresses, support reactions, equilibrium, probes, contact per punch, KKT residuals,
+solver, timings, the run, the inputs (every case-file key, ``--set`` overrides marked),
+versions and the full summary.json.
 Numbers are printed with 6 significant digits (``{:.6g}``), the JSON verbatim; units are those of
 the case's ``[units] system`` (units.py). Long cells wrap: no table is wider than the page.
 """
@@ -46,6 +47,8 @@ pre { background: #f7f7f7; padding: 0.8em; white-space: pre-wrap; overflow-wrap:
 .warnings { border: 2px solid #c60; background: #fff4e5; padding: 0.4em 1em; margin: 1em 0; }
 .warnings li { margin: 0.3em 0; }
 .ok { color: #2a6; }
+body.wide { max-width: 1360px; } .scroll { overflow-x: auto; max-width: 100%; }
+table.study { font-size: 0.8em; } table.study th { overflow-wrap: normal; }
 """
 
 PACKAGES = ("shellcontact", "numpy", "scipy", "scikit-fem", "meshio", "matplotlib", "pypardiso")
@@ -146,8 +149,10 @@ def _warnings(s: Mapping[str, Any]) -> str:
     items = s.get("warnings") or []
     if not items:
         return ('<p class="ok">No warnings: every check of the result passed (KKT residuals, penalty ε, contact '
-                "outside the zones or between the constraint points, yield stress: where they apply).</p>")
-    li = "\n".join(f"<li>{html.escape(str(w))}</li>" for w in items)
+                "outside the zones or between the constraint points, the thin-shell and small-deflection range, "
+                "yield stress: where they apply).</p>")
+    # each {"code", "message"} (summary.json since the codes; older summaries hold plain strings)
+    li = "\n".join(f"<li>{html.escape(w if isinstance(w, str) else str(w.get('message', '')))}</li>" for w in items)
     return f'<div class="warnings"><strong>{len(items)} warning{"s" * (len(items) != 1)}</strong><ul>{li}</ul></div>'
 
 
@@ -446,10 +451,10 @@ def render(
         ("energy" + bracket("energy", summary.get("unit_system", "SI")), summary.get("energy")),
     ]
     sections = [
+        ("Warnings", _warnings(summary)),  # first: they change what every number below means
         ("The case", _describe_case(case, summary) if case is not None else ""),
         ("Results", _headline(summary)),
         ("Accuracy", _accuracy(summary)),
-        ("Warnings", _warnings(summary)),
         ("Figures", "\n".join(image(n, b) for n, b in (figures or {}).items())),
         ("Details", "<p>Every number of the run, by topic; the full summary.json at the end.</p>"),
         ("Stresses (extremes per surface)", _stresses(summary), 3),
@@ -495,17 +500,21 @@ def write_study_report(
     figures: Mapping[str, bytes] | None = None,
     about: Mapping[str, Any] | None = None,
     inputs: Mapping[str, Any] | None = None,
+    heads: Mapping[str, str] | None = None,
 ) -> Path:
-    """A self-contained page for a sweep or a convergence study: what was run, the table, the figures."""
+    """A self-contained page for a sweep or a convergence study: what was run, the table (``heads``: each
+    column's title with its unit), the figures. The page is 1360 px wide; a table wider still scrolls in its box."""
     cols: list[str] = []
     for r in rows:
         cols += [c for c in r if c not in cols]
+    titles = [(heads or {}).get(c, c).replace(".", ".\u200b").replace("_", "_\u200b") for c in cols]  # break points
+    results = table([[r.get(c) for c in cols] for r in rows], titles, "study")
     sections = [
         ("Study", table(list((about or {}).items()), ("", "value"))),
-        ("Results", table([[r.get(c) for c in cols] for r in rows], cols)),
+        ("Results", f'<div class="scroll">{results}</div>'),
         ("Figures", "\n".join(image(n, b) for n, b in (figures or {}).items())),
         ("Inputs", table(flatten(inputs or {}), ("key", "value"))),
         ("Versions", table(list(versions().items()), ("package", "version"))),
     ]
-    atomic_write_text(path, page(title, sections))
+    atomic_write_text(path, page(title, sections).replace("<body>", '<body class="wide">', 1))
     return Path(path)

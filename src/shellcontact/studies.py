@@ -43,6 +43,7 @@ from .sampling import (
     parse_values,  # noqa: F401 — public here too (the sweep's --values; arguments.py names it)
     whole_value,
 )
+from .tables import text_table
 from .user_functions import CodeConsent, code_consent
 
 log = logging.getLogger("shellcontact")
@@ -65,7 +66,7 @@ COLUMN_KINDS = (("dofs", None), ("energy", "energy"), ("max_abs_w", "length"), (
                 ("normal_force*", "force"), ("force*", "force"), ("zone_area*", "area"), ("area*", "area"),
                 ("line_force*", "force/length"),
                 ("peak_pressure*", "pressure"), ("active_vertices*", None), ("punch_travel*", "length"),
-                ("iterations", None))
+                ("iterations", None), ("h", "length"))
 
 
 def column_kind(column: str) -> str | None:
@@ -597,7 +598,8 @@ def _write_sweep_files(res: SweepResult, out: Path, param: str, figures: bool, s
     from .report import write_study_report
 
     about = {"case file": source, "parameter": param, "values": len(res.values)}  # the same page when resumed
-    write_study_report(out / "report.html", f"shellcontact sweep: {param}", res.rows, pngs, about, raw)
+    write_study_report(out / "report.html", f"shellcontact sweep: {param}", res.rows, pngs, about, raw,
+                       _heads(res.rows, [param], res.summaries))
     return [*names, "report.html"]
 
 
@@ -796,7 +798,8 @@ def _write_study_files(res: StudyResult, out: Path, figures: bool, source: str |
     about = {"case file": source, "sampling": res.sampling, "keys": ", ".join(res.keys), "points": len(res.rows),
              "units": ", ".join(f"{c} [{u}]" for c, u in units.items() if u)}
     title = f"shellcontact study: {', '.join(res.keys)}"
-    write_study_report(out / "report.html", title, res.rows, pngs, about, raw)
+    write_study_report(out / "report.html", title, res.rows, pngs, about, raw,
+                       _heads(res.rows, res.keys, res.summaries))
     return [*names, "report.html"]
 
 
@@ -954,6 +957,7 @@ def _convergence(case: Case, levels: int, out: Path | None, progress: Progress |
             {"convergence.png": png} if figures else {},
             about,
             case.raw,
+            _heads(rows, (), res.summaries),
         )
     return res
 
@@ -967,23 +971,10 @@ def _check_finest(case: Case, refine: int, max_memory: float | str | None) -> No
 
     finest = dataclasses.replace(case, mesh=dataclasses.replace(case.mesh, refine=refine))
     try:
-        check_size(finest, place_punches(case.punches, case.shell), max_memory,
+        check_size(finest, place_punches(case.punches, case.shell, case.units), max_memory,
                    what=f"the finest level (refine {refine})")
     except InputError as exc:
         raise InputError("--levels", f"{exc.message} (or fewer --levels)") from None
-
-
-def text_table(head: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
-    """A fixed-width text table for the console: numbers to 6 significant digits, None as —."""
-
-    def f(v: Any) -> str:
-        return "—" if v is None else (f"{v:.6g}" if isinstance(v, float) else str(v))
-
-    cells = [[f(v) for v in r] for r in rows]
-    widths = [max(len(h), *(len(c[i]) for c in cells)) if cells else len(h) for i, h in enumerate(head)]
-    lines = ["  ".join(f"{h:>{w}}" for h, w in zip(head, widths))]
-    lines += ["  ".join(f"{c:>{w}}" for c, w in zip(r, widths)) for r in cells]
-    return "\n".join(lines)
 
 
 def convergence_table(res: ConvergenceResult) -> str:
@@ -994,15 +985,19 @@ def convergence_table(res: ConvergenceResult) -> str:
     return text_table(head, [[r[k] for k in keys] for r in res.rows])
 
 
-def _table(rows: Sequence[dict[str, Any]], keys: Sequence[str], summaries: Sequence[dict[str, Any]]) -> str:
+def _heads(rows: Sequence[dict[str, Any]], keys: Sequence[str], summaries: Sequence[dict[str, Any]]) -> dict[str, str]:
     """Every column of ``rows`` with its unit (the keys' from the schema, the others' from COLUMN_KINDS)."""
     from .units import bracket
 
     system = summaries[0].get("unit_system", "SI") if summaries else "SI"
     cols = list(dict.fromkeys(c for r in rows for c in r))
-    kinds = [key_kind(c) if c in keys else column_kind(c) for c in cols]
-    head = [c + (bracket(k, system) if k else "") for c, k in zip(cols, kinds)]
-    return text_table(head, [[r.get(c) for c in cols] for r in rows])
+    return {c: c + (bracket(k, system) if k else "") for c in cols
+            for k in [key_kind(c) if c in keys else column_kind(c)]}
+
+
+def _table(rows: Sequence[dict[str, Any]], keys: Sequence[str], summaries: Sequence[dict[str, Any]]) -> str:
+    heads = _heads(rows, keys, summaries)
+    return text_table(list(heads.values()), [[r.get(c) for c in heads] for r in rows])
 
 
 def sweep_table(res: SweepResult) -> str:

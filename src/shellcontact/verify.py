@@ -27,6 +27,7 @@ check passes, 1 otherwise; ``run_checks()`` returns the rows (``Check``) for pro
 from __future__ import annotations
 
 import copy
+import logging
 import math
 import time
 import tomllib
@@ -400,12 +401,36 @@ def format_table(rows: list[Check]) -> str:
     return "\n".join(lines)
 
 
+class _CountWarnings(logging.Filter):
+    """Holds back the solves' warnings: the checks solve cases outside the accurate range on purpose (penalty ε
+    swept over decades, a 5 mm indentation): lines of "warning:" after "11/11 checks passed" read as a failure."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.count = 0
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.levelno == logging.WARNING and record.getMessage().startswith("warning: "):
+            self.count += 1
+            return False
+        return True
+
+
 def run_verify(quiet: bool = False) -> int:
     """Run the checks of MODEL.md §9, print the table; 0 if all pass, 1 otherwise."""
     say = (lambda *a: None) if quiet else (lambda *a: print(*a, flush=True))
     t0 = time.perf_counter()
     say("shellcontact verify: the results of Bock & Lovíšek (1983) as numerical checks (MODEL.md §9)")
-    rows = run_checks()
+    held = _CountWarnings()
+    log = logging.getLogger("shellcontact")
+    log.addFilter(held)
+    try:
+        rows = run_checks()
+    finally:
+        log.removeFilter(held)
     say(format_table(rows))
+    if held.count:
+        say(f"({held.count} warnings of the checks' own solves not shown: they test penalty parameters and "
+            "indentations outside the accurate range on purpose; the checks above judge their results)")
     say(f"total {time.perf_counter() - t0:.1f} s")
     return 0 if all(r.passed for r in rows) else 1

@@ -25,8 +25,9 @@ opposite the body (``zones.body_zone``), so the body's edges become zone edges a
 Refused (InputError naming the key): a zone outside Ω or empty, a punch that never touches the
 shell moving along ``direction``, a punch whose smallest gap over its zone is not below g, an
 overlap larger than the shell can take (> 0.2·a, or > 10·t: far outside linear shell theory), a
-body whose extent faces no point of the contact surface in the zone, and a custom function that
-raises, returns wrong shapes or non-finite values on the shell.
+body whose extent faces no point of the contact surface in the zone, a custom function that
+raises, returns wrong shapes or non-finite values on the shell, and an indentation between 0 and
+``INDENTATION_DIGITS`` × the gap's round-off (1e-9 m on the paper's panel: the force would be wrong).
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry import Shell, frame
+from ..units import with_unit
 from .extent import Extent
 from .shapes import Custom
 from .spec import PunchSpec, parse_punch
@@ -55,6 +57,8 @@ EDGE_CONTACT_FRACTION = 1e-4  # a finite body's first contact this close (× zon
 #: at a + t/2 "overlapped" the ring example by 1.4e-17 m, and a fixed punch's zone tolerance (1e-3 × its
 #: overlap) was then 1.4e-20 m instead of following the shell's motion toward it (contact.contact_zone)
 TOUCH_ROUNDOFF = 1e-12
+#: the smallest indentation is this many times the gap's round-off (``_check_indentation_resolved``)
+INDENTATION_DIGITS = 1e3
 
 
 @dataclass
@@ -277,7 +281,29 @@ def _polish_minimum(punch: Punch, shell: Shell, x: float, phi: float, width: flo
     return float(punch.Z_on_body(M)[0]), c[0], c[1]
 
 
-def check_linear_range(depth: float, shell: Shell, key: str, what: str) -> None:
+def _length(value: float, units: str, spec: str = ".4g") -> str:
+    return with_unit(format(value, spec), "length", units)
+
+
+def _check_indentation_resolved(depth: float, body, center: np.ndarray, shell: Shell, where: str,
+                                units: str = "SI") -> None:
+    """Refuse an indentation the gap cannot resolve: Z is known to ε·scale (``_check_resolution``) and an overlap
+    below ``TOUCH_ROUNDOFF``·a counts as touching, so 1e-15 m on the paper's panel gave a force 11 % off and
+    1e-16 m a force of 0. Above ``INDENTATION_DIGITS`` × that the force's relative error stays below 1e-3."""
+    if depth <= 0.0:
+        return
+    scale = max(float(np.linalg.norm(center)), float(body.size) if math.isfinite(body.size) else 0.0, shell.radius)
+    least = INDENTATION_DIGITS * max(float(np.finfo(float).eps) * scale, TOUCH_ROUNDOFF * shell.radius)
+    if depth < least:
+        eps = float(np.finfo(float).eps)
+        raise InputError(f"{where}.indentation", f"{_length(depth, units, '.3g')} is below what the gap resolves: Z "
+                         f"is known to {_length(eps * scale, units, '.2g')} (round-off at "
+                         f"{_length(scale, units, '.3g')} from the axis) and an overlap below "
+                         f"{_length(TOUCH_ROUNDOFF * shell.radius, units, '.2g')} counts as touching, so the force "
+                         f"would be wrong; give 0 (just touching) or at least {_length(least, units, '.2g')}")
+
+
+def check_linear_range(depth: float, shell: Shell, key: str, what: str, units: str = "SI") -> None:
     """Refuse a depth (an overlap, or a force-controlled punch's travel) beyond linear shell theory:
     more than ``OVERLAP_RADIUS_FRACTION`` × radius or ``OVERLAP_THICKNESSES`` thicknesses."""
     tmax = float(
@@ -286,19 +312,21 @@ def check_linear_range(depth: float, shell: Shell, key: str, what: str) -> None:
     if depth > OVERLAP_RADIUS_FRACTION * shell.radius:
         raise InputError(
             key,
-            f"{what} {depth:.4g}, more than {OVERLAP_RADIUS_FRACTION} x radius = "
-            f"{OVERLAP_RADIUS_FRACTION * shell.radius:.4g}: far beyond a linear shell",
+            f"{what} {_length(depth, units)}, more than {OVERLAP_RADIUS_FRACTION} x radius = "
+            f"{_length(OVERLAP_RADIUS_FRACTION * shell.radius, units)}: far beyond a linear shell",
         )
     if depth > OVERLAP_THICKNESSES * tmax:
         raise InputError(
             key,
-            f"{what} {depth:.4g}, more than {OVERLAP_THICKNESSES:g} thicknesses ({OVERLAP_THICKNESSES * tmax:.4g}): "
+            f"{what} {_length(depth, units)}, more than {OVERLAP_THICKNESSES:g} thicknesses "
+            f"({_length(OVERLAP_THICKNESSES * tmax, units)}): "
             "far beyond a linear shell",
         )
 
 
-def place(spec: PunchSpec, shell: Shell) -> Punch:
-    """The punch of ``spec`` at its final position on ``shell`` (see the module docstring)."""
+def place(spec: PunchSpec, shell: Shell, units: str = "SI") -> Punch:
+    """The punch of ``spec`` at its final position on ``shell`` (see the module docstring); lengths in messages
+    labelled in the unit system ``units``."""
     where, body, mode = spec.where, spec.body, spec.mode
     if isinstance(body, Custom):
         _check_custom(body, shell)
@@ -333,6 +361,8 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
             Z = np.where(_foot_distance(body, spec.extent, X) <= 0.0, Z, np.inf)
         return Z, sgn * g
 
+    if mode == "indentation":
+        _check_indentation_resolved(spec.indentation, body, center, shell, where, units)
     if mode != "fixed":
         t0 = _touch_travel(punch, shell, body_Z, where)
         punch.touch_travel = t0
@@ -348,7 +378,7 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
     punch.min_gap, punch.first_contact = zmin, (xm, pm)
     punch.overlap = -zmin if -zmin > TOUCH_ROUNDOFF * shell.radius else 0.0
     check_linear_range(punch.overlap, shell, f"{where}.indentation" if mode == "indentation" else where,
-                       "the punch overlaps the undeformed shell by")
+                       "the punch overlaps the undeformed shell by", units)
     gap = spec.zone_gap if spec.zone_gap is not None else max(
         ZONE_OVERLAP_FACTOR * punch.overlap, ZONE_SIZE_FRACTION * size)
     zone = given or automatic_zone(lambda M: punch.Z(M)[0], shell, punch.side_sign, gap, punch.first_contact, zmin)
@@ -363,8 +393,9 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
         x, p = punch.first_contact
         raise InputError(
             where,
-            f"the punch does not touch the {spec.side} surface of the shell: smallest gap {zmin:.4g} (at "
-            f"x = {x:.6g}, phi = {math.degrees(p):.6g} deg) is not below the zone threshold {gap:.4g}; "
+            f"the punch does not touch the {spec.side} surface of the shell: smallest gap {_length(zmin, units)} "
+            f"(at x = {_length(x, units, '.6g')}, phi = {math.degrees(p):.6g} deg) is not below the zone threshold "
+            f"{_length(gap, units)}; "
             "move it or give 'indentation' or 'force'",
         )
     punch.zone = zone
@@ -372,9 +403,9 @@ def place(spec: PunchSpec, shell: Shell) -> Punch:
     return punch
 
 
-def place_punches(specs: Sequence[PunchSpec], shell: Shell) -> list[Punch]:
-    """Every punch of a case, placed."""
-    return [place(s, shell) for s in specs]
+def place_punches(specs: Sequence[PunchSpec], shell: Shell, units: str = "SI") -> list[Punch]:
+    """Every punch of a case, placed (``units``: the case's system, for the lengths in messages)."""
+    return [place(s, shell, units) for s in specs]
 
 
 def punch_from_dict(raw: dict, shell: Shell, index: int = 0) -> Punch:
