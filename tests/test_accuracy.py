@@ -227,7 +227,8 @@ def test_run_estimate_writes_accuracy_and_warns(tmp_path):
     assert entry["value"] == s["probes"][0]["w"] and entry["estimate"] > 0.01
     assert s["units"]["accuracy.probes.0.w.value"] == "m" and "accuracy.probes.0.w.estimate" not in s["units"]
     assert [lv["dofs"] for lv in s["refinement"]["levels"]] == [s["dofs"], 368, 120]
-    assert any(w.startswith("accuracy: estimated discretisation error above 1 %") for w in s["warnings"])
+    assert any(w["code"] == "accuracy" and w["message"].startswith("accuracy: estimated discretisation error above 1 %")
+               for w in s["warnings"])
     assert "estimated discretisation error above 1 %" in err
     at = s["probes"][0]
     assert f"probes.0.w {100 * entry['estimate']:.3g} % (at x = {at['x']:.4g}, phi = {at['phi']:.4g} deg)" in err

@@ -38,7 +38,7 @@ def _overlaps(boxes) -> list:
 def test_units_on_every_axis_and_colour_bar(panel) -> None:
     """Every axis that shows numbers (visible tick labels, after drawing) is labelled, with the unit of the case's
     system; only an axis without numbers (a colour bar's short side) may go unlabelled. 25 labelled axes in the
-    six figures."""
+    six figures (24 since deformed.png leaves out a nearly empty pressure view)."""
     labelled = 0
     for name, fig in _figures(panel).items():
         FigureCanvasAgg(fig).draw()  # tick labels get their text when drawn
@@ -51,7 +51,7 @@ def test_units_on_every_axis_and_colour_bar(panel) -> None:
                 assert text, f"{name}: axes {i} shows {numbers[:3]} … with no label"
                 assert text.endswith(("[mm]", "[MPa]", "[deg]", "[N/mm]")), (name, text)
                 labelled += 1
-    assert labelled >= 25
+    assert labelled >= 24  # (deformed.png's pressure view is left out when contact covers < 10 % of the vertices)
     # the system's labels, not SI ones, and the titles' figures too
     fig = plots.plot_von_mises(panel)
     assert "MPa" in fig.axes[0].get_title() and "mm" in fig.axes[0].get_title()

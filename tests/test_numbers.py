@@ -45,11 +45,12 @@ def strict_loads(text: str):
 
 
 # -- the dual at tiny indentations ---------------------------------------------------------------------------
-def test_dual_agrees_with_active_set_from_1e_12_to_1e_2() -> None:
+def test_dual_agrees_with_active_set_from_1e_9_to_1e_2() -> None:
     """Both exact methods solve the same QP; they must give the same force at every indentation (the
-    dual returned force 0 at 1e-12: its stopping test was absolute, relative to max|G| of the zone)."""
+    dual returned force 0 at 1e-12: its stopping test was absolute, relative to max|G| of the zone). Below
+    1e-9 m an indentation is refused, as below what the gap resolves (tests/test_edges.py)."""
     compliance = {}
-    for d in 10.0 ** np.arange(-12, -1):
+    for d in 10.0 ** np.arange(-9, -1):
         case = case_from_dict(panel(punch={"indentation": float(d)}))
         results = {m: solve(case, method=m) for m in ("active-set", "dual")}
         forces = {m: r.summary()["contact"][0]["force_magnitude"] for m, r in results.items()}
@@ -62,7 +63,7 @@ def test_dual_agrees_with_active_set_from_1e_12_to_1e_2() -> None:
                 i = int(np.flatnonzero(c.active)[0])
                 compliance.setdefault((m, i), []).append(-c.operator.G[i] / c.Lambda[i])
     # while the active set is the same single point (same mesh: the zone is given), S_ii is the same
-    # number: linear in the overlap to round-off, down to 1e-12
+    # number: linear in the overlap to round-off, down to 1e-9
     assert compliance and all(len(v) >= 5 for v in compliance.values()), compliance
     for v in compliance.values():
         assert np.ptp(v) <= 1e-12 * np.mean(v), v

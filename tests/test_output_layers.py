@@ -20,7 +20,10 @@ ALLOWED = {
     "fields": {"results"},
     "files": {"errors"},
     "writers": {"fields", "files"},
-    "plots": {"fields", "files", "units"},
+    "figure_common": {"fields", "files", "units"},
+    "contact_figures": {"fields", "figure_common", "units"},
+    # plots: results for the refined sampling the von Mises map shares with summary.json's maxima
+    "plots": {"fields", "figure_common", "contact_figures", "results", "units"},
     "report": {"files", "units"},
     "transaction": {"errors", "files"},
     "outputs": {"fields", "files", "transaction", "writers", "plots", "report", "units"},

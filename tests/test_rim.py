@@ -94,7 +94,8 @@ def test_plates_on_a_pipe_carry_the_line_load_F_over_L():
         assert rim["length"] == pytest.approx(L, rel=1e-6)
         values = [s["line_force"] for s in rim["samples"]]
         assert len(values) >= 3 and max(values) / min(values) - 1 <= 1e-3  # no vertex/midpoint zig-zag
-        assert rim["interior_force"] == 0.0
+        # all of it on the line: the interior is the round-off of total − line force (measured 2.8e-14 N of 200 N)
+        assert abs(rim["interior_force"]) <= 1e-12 * e["total_normal_force"]
 
 
 def test_band_rim_runs_round_the_pipe():

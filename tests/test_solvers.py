@@ -337,8 +337,10 @@ def test_warm_start_and_nested_iteration() -> None:
     print(f"\nplate N=32: active-set cold {cold.iterations} it, nested {nested.iterations} it; "
           f"dual cold {dual_cold.iterations} it, nested {dual_nested.iterations} it; "
           f"Schur columns cold {cold.timings['schur_columns']:.0f}, nested {nested.timings['schur_columns']:.0f}")
-    # the prolongated coarse active set is nearly the fine one: measured 38 → 6 (active set), 77 → 3 (dual)
-    assert nested.iterations <= 0.5 * cold.iterations and dual_nested.iterations <= 0.5 * dual_cold.iterations
+    # the prolongated coarse active set is nearly the fine one: measured 8 → 6 (active set; 38 → 6 before the
+    # working set's growth floor made the cold start fast; Schur columns 382 → 412, so no saving in work here),
+    # 15 → 3 (dual)
+    assert nested.iterations < cold.iterations and dual_nested.iterations <= 0.5 * dual_cold.iterations
     assert _rel(nested.U, cold.U) <= 1e-8 and _rel(dual_nested.U, cold.U) <= 1e-8
 
 

@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from .fields import contact_vertex_fields
-from .plots import _contact_outline, _finish, _fmt, _levels, _map_axes, _q, _unit, _vertex_map
+from .figure_common import _contact_outline, _finish, _fmt, _levels, _map_axes, _q, _unit, _vertex_map
 from .units import with_unit
 
 
