@@ -25,6 +25,7 @@ import numpy as np
 from .arguments import described, expect_path, expect_strings
 from .errors import InputError
 from .geometry import Shell
+from .input_hints import angle_unit_error
 from .linalg import BACKENDS
 from .loads import LineLoad, Loads, PointLoad
 from .material import MATERIALS, Material, check_stiffness_range
@@ -36,7 +37,6 @@ from .solvers.methods import METHODS
 from .supports import SUPPORTS, Supports
 from .units import SYSTEMS
 from .user_functions import CodeConsent, code_consent, consent_for, current_consent
-from .validity import angle_unit_error
 
 _NUMBER_OR_FUNCTION = "string `\"module:function\"`: a function t(x, phi) (NumPy, φ in radians)"
 #: the allowed column of every modulus (material.check_stiffness_range)
@@ -347,7 +347,7 @@ def _check_mesh_lines(shell: Shell, ms: MeshSpec) -> None:
 
 def _check_angle_unit(shell: Shell, data: dict, probes: list[tuple[float, float]]) -> None:
     """``shell.angle`` in radians where degrees are expected, recognised by the punch centres and probes that
-    lie between its numbers read as radians (validity.angle_unit_error), named before it fails as a probe
+    lie between its numbers read as radians (input_hints.angle_unit_error), named before it fails as a probe
     outside the shell or an empty admissible set."""
     if shell.full:
         return
