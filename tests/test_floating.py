@@ -274,3 +274,26 @@ def test_the_rigid_motion_reported_is_the_pipes():
     assert abs(t[2] + travel / 2) <= 3e-6 * travel
     assert np.all(np.abs(t - mean) <= 5e-5 * travel)
     assert np.all(np.abs(rm["rotation"]) <= 1e-12)
+
+
+def test_pipe_on_rollers_on_a_coarse_mesh_solves_with_both_exact_methods():
+    """examples/pipe_rollers.toml at 8 × 8 (held by the rollers alone; translation along x and rotations about x
+    and z balanced): both exact methods failed (force_balance 1.2e3–2.0e3 N, the active set stalled and handed
+    over to the dual). The interpolated rigid motions are not exact at edge-midpoint rows (up to 3e-7 of the
+    largest |B R|), above the 1e-8 at which a row "sees" a motion: the translation along y, which no gap
+    depends on (the rollers' axes are along y), was balanced, and the rotation about z was told apart at
+    rows on the lower rollers' lines by 1.3e-7 entries: the dual's start held 3.3 km along y and 42 rad about z.
+    Rows now see a motion when the exact rigid motion changes their gap (``floating.exact_gap_change``)."""
+    case = sc.load_case(EXAMPLE.parent / "pipe_rollers.toml", sets=("mesh.nx=8", "mesh.nphi=8"))
+    ref = sc.solve(case, method="penalty").summary()
+    forces = [c["force_magnitude"] for c in ref["contact"]]
+    assert np.allclose(forces, [2000.0, 1000.0, 1000.0], rtol=1e-6)
+    for method in ("active-set", "dual"):
+        res = sc.solve(case, method=method)
+        s = res.summary()
+        assert s["rigid_motion"]["gauged"] == ["translation along y"]
+        assert res.contact.solution.info.get("fallback") is None  # the active set did not hand over
+        got = [c["force_magnitude"] for c in s["contact"]]
+        assert np.allclose(got, forces, rtol=1e-6), (method, got, forces)
+        assert np.allclose(got, [2000.0, 1000.0, 1000.0], rtol=1e-9), (method, got)
+        assert abs(s["contact"][0]["punch_travel"] / ref["contact"][0]["punch_travel"] - 1) <= 1e-5

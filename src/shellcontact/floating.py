@@ -46,8 +46,9 @@ from .supports import Reduction, _echelon, describe_motion, remedy, right_singul
 #: a free motion carries no load when |Rᵀ F| is below this fraction of its gross size Σ |f_d r_d| (round-off,
 #: or on an unsymmetric mesh the interpolation error of the motion, which is not exactly rigid in V_h)
 EXCITATION_TOL = 1e-6
-#: a row sees a motion when |B R c| exceeds this fraction of the largest |B R| of the free motions (each
-#: displaces the shell by about 1): exact zeros (a plate's normal across a translation along it) stay zero
+#: a row sees a motion when the exact motion's gap change |∇Z·r c| (``exact_gap_change``, not B R: the interpolated
+#: motions' error at edge-midpoint rows reaches 3e-7) exceeds this fraction of the largest of the free motions'
+#: (each displaces the shell by about 1): exact zeros (a plate's normal across a translation along it) stay zero
 SEEN_TOL = 1e-8
 #: a row carries a force when its Λ exceeds this fraction of the largest (below: round-off, e.g. the row an
 #: exact method adds to the face to tell the columns of D apart, touching with Λ ≈ 1e-12 Λ_max); the default
@@ -169,7 +170,11 @@ def analyse(space: ShellSpace, reduction: Reduction, op: ContactOperator, F: np.
     sh = space.mesh.shell
     modes = rigid_modes(space) if reduction.modes is None else reduction.modes
     free = reduction.motions
-    BR_all = np.asarray(op.B @ (modes @ free.T)).reshape(op.m, -1)  # (m, k)
+    # which rows see which motion, from the exact rigid motions (``exact_gap_change``): the interpolated ones
+    # B R differ from them at edge-midpoint rows by their interpolation error (up to 3e-7 of the largest
+    # entry on pipe_rollers, 8 x 8 and 16 x 16), which would make a motion no gap depends on "seen"
+    exact = exact_gap_change(op, sh.radius)  # (m, 6)
+    BR_all = exact @ free.T  # (m, k)
     restrained, unrestrained = _split(BR_all[first_contact_rows(op, sh.radius)], free, 1e-8)
     excited = []
     for c in unrestrained:
@@ -185,19 +190,36 @@ def analyse(space: ShellSpace, reduction: Reduction, op: ContactOperator, F: np.
     balanced, gauged = np.zeros((0, 6)), unrestrained
     if len(unrestrained):  # which of them rows beside first contact see (relative to the free motions' size)
         scale = max(float(np.abs(BR_all).max()) if BR_all.size else 0.0, 1.0)
-        BU = np.asarray(op.B @ (modes @ unrestrained.T)).reshape(op.m, -1) / scale
+        BU = (exact @ unrestrained.T) / scale
         balanced, gauged = _split(BU, unrestrained, SEEN_TOL, relative=False)
     columns = np.vstack([restrained, balanced])
     R = modes @ columns.T
-    D = np.asarray(op.B @ R).reshape(op.m, -1)
-    Db = D[:, len(restrained):]  # rows that do not see a balanced motion get exact zeros, not round-off
-    Db[np.abs(Db) <= SEEN_TOL * max(float(np.abs(Db).max()) if Db.size else 0.0, 1e-300)] = 0.0  # (cos 90°):
-    # a face of rows that do not see it then leaves its amount undetermined exactly, not 1e-17/1e-34
+    D = np.asarray(op.B @ R).reshape(op.m, -1)  # the interpolated motions: the gaps of U = U_e + R α
+    # rows that do not see a motion get exact zeros, not round-off (cos 90°) nor the interpolation error: a
+    # face of rows that do not see it then leaves its amount undetermined exactly (not fixed by a 1e-7 entry:
+    # a rotation of 42 rad about z on pipe_rollers at 8 x 8, from which the dual method did not return)
+    E = exact @ columns.T
+    D[np.abs(E) <= SEEN_TOL * max(float(np.abs(E).max()) if E.size else 0.0, 1e-300)] = 0.0
     floating = Floating(modes=modes, restrained=restrained, balanced=balanced, gauged=gauged, radius=sh.radius,
                         D=D, P=np.concatenate([R[:, :len(restrained)].T @ F, np.zeros(len(balanced))]),
                         areas=vertex_areas(space))
     check_held(floating, op)
     return floating
+
+
+def exact_gap_change(op: ContactOperator, radius: float) -> np.ndarray:
+    """(m, 6): the change of each row's linearised gap ∇Z(M_i)·r(M_i) per unit of the six exact rigid motions
+    (translations; rotations by 1/a about the origin, as ``supports.rigid_modes``) at the contact points M_i.
+    It equals B R at vertex rows to round-off; at edge-midpoint rows B R carries the interpolation error of
+    the interpolated motions as well (the Kirchhoff–Love w is not exact there)."""
+    grad, pts = np.asarray(op.grad, float), np.asarray(op.points, float)
+    out = np.zeros((op.m, 6))
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = 1.0
+        out[:, j] = grad[j]
+        out[:, 3 + j] = np.einsum("im,im->m", grad, np.cross(e[:, None] / radius, pts, axis=0))
+    return out
 
 
 def _split(BR: np.ndarray, motions: np.ndarray, tol: float, relative: bool = True) -> tuple[np.ndarray, np.ndarray]:
