@@ -53,10 +53,11 @@ def _pipe_pressed(indentation: bool, bottom_plate: bool) -> dict:
     return raw
 
 
-@pytest.mark.xfail(strict=True, raises=sc.SolverError, reason=(
+@pytest.mark.xfail(strict=False, raises=sc.SolverError, reason=(
     "open defect (issue 23 item 5): since the floating shell's unloaded motions became balanced columns of D, the "
-    "QP of a shell pushed rigidly by its only punch (P = 0, every force zero) is not solved by any method: the "
-    "active set and dual stop at 0 iterations with force_balance 4e-13 N, the penalty at 50 Newton steps"))
+    "QP of a shell pushed rigidly by its only punch (P = 0, every force zero) fails or passes by round-off: seen "
+    "failing in this process alone and in one -n 2 run (active set and dual stop at 0 iterations with "
+    "force_balance 4e-13 N, the penalty at 50 Newton steps) and passing in a fresh clone's -n 2 run"))
 def test_a_floating_shell_pushed_by_its_only_punch_says_it_moved_rigidly() -> None:
     """The pipe of ring_stiffness without its bottom plate, its top plate moved 1 mm: the pipe moves 1 mm with
     it and no force arises (before: 'force 0 N' and no word). With the bottom plate the same indentation
