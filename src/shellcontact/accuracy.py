@@ -33,6 +33,7 @@ from typing import Any
 
 from .arguments import expect_callable, expect_integer
 from .errors import InputError, ShellContactError
+from .refine_advice import advice
 from .validity import ResultWarning, record
 
 #: the headline quantities by summary path (``*``: every list index or key), each with the numbers its relative
@@ -110,28 +111,6 @@ def headline_values(summary: Mapping[str, Any]) -> dict[str, tuple[float, float]
                     scale = max(scale, factor * abs(float(ref)))
             out[path] = (float(value), scale)
     return out
-
-
-def where(summary: Mapping[str, Any], path: str) -> str:
-    """Where the error of headline ``path`` comes from, as the warning says it: a stress maximum's point, a
-    probe's point, a punch's contact zone ('' when the summary does not say)."""
-    parts = path.split(".")
-    if parts[0] == "stresses":
-        at = lookup(summary, f"stresses.{parts[1]}.at")
-    elif parts[0] == "probes":
-        at = lookup(summary, f"probes.{parts[1]}")
-    elif parts[0] == "contact":
-        zone = lookup(summary, f"contact.{parts[1]}.zone") or {}
-        x, phi = zone.get("x"), zone.get("phi")
-        if isinstance(x, list) and isinstance(phi, list) and len(x) == 2 and len(phi) == 2:
-            return (f" (punch {parts[1]}'s contact zone, x {x[0]:.4g} to {x[1]:.4g}, "
-                    f"phi {phi[0]:.4g} to {phi[1]:.4g} deg)")
-        return f" (punch {parts[1]}'s contact zone)"
-    else:
-        return ""
-    if isinstance(at, Mapping) and _number(at.get("x")) and _number(at.get("phi")):
-        return f" (at x = {at['x']:.4g}, phi = {at['phi']:.4g} deg)"
-    return ""
 
 
 # -- the estimate ------------------------------------------------------------------------------------------
@@ -226,11 +205,11 @@ class Estimate:
         missing = [p for p, e in self.accuracy.items() if e["estimate"] is None]
         out = []
         if above:
-            fine = self.summaries[0] if self.summaries else {}
-            out.append("accuracy: estimated discretisation error above 1 %: " + ", ".join(
-                f"{p} {100 * v:.3g} %{where(fine, p)}" for p, v in sorted(above.items(), key=lambda kv: -kv[1]))
-                + "; refine the mesh there (grade it toward those places: mesh.grading) or everywhere "
-                "(--set mesh.refine=N, or run --accuracy 1e-2)")
+            fine = self.summaries[0] if self.summaries else self.result.summary()
+            out.append("accuracy: estimated discretisation error above 1 % (each with what to refine; --set KEY=VALUE "
+                       "or the case's [mesh], or run --accuracy 1e-2): " + "; ".join(
+                           f"{p} {100 * v:.3g} %{advice(self.result, fine, p)}"
+                           for p, v in sorted(above.items(), key=lambda kv: -kv[1])))
         if missing:
             out.append("accuracy: not estimated (missing on the coarser mesh): " + ", ".join(missing)
                        + "; refine the mesh so that the coarser one has it too")

@@ -52,6 +52,7 @@ from .errors import InputError
 from .geometry import frame
 from .punches import Punch
 from .spaces import ShellSpace
+from .zone_points import ROUND_OFF_GAP, nearest_point_class
 
 POINTS = ("vertices", "vertices+midpoints")
 
@@ -465,13 +466,18 @@ def zone_tolerance(punch: Punch, step: float | None = None, rel_gap: float = ZON
 
 
 def contact_zone(space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, delta: np.ndarray | None = None,
-                 rel_gap: float = ZONE_GAP, order: int = 10) -> list[dict]:
+                 rel_gap: float = ZONE_GAP, order: int = 10,
+                 carrying: tuple[ContactOperator, np.ndarray, np.ndarray] | None = None) -> list[dict]:
     """Where each punch touches, as quantities that converge under refinement.
 
     The linearised gap Π = Z(M) + ∇Z·U(M) (− δ ∇Z·d under force control; MODEL.md §5) is evaluated at
     the quadrature points of the candidate zone's triangles, and a point counts as touching where
     Π ≤ ``rel_gap`` × the punch's travel (its indentation, its force-control travel δ, or else its
-    overlap; for a fixed punch that only touches, the largest displacement toward it in its zone).
+    overlap; for a fixed punch that only touches, the largest displacement toward it in its zone). A fixed
+    punch's points are classified by their nearest constraint point instead when ``carrying`` = (the operator,
+    Λ, the gap at its rows) is given: it touches when it carries force or its gap is at round-off,
+    ``ROUND_OFF_GAP`` × that motion (zone_points.py: between the points the gap is an interpolation with no
+    gap in its distribution, and points that carry nothing hover down to 10 nm above the punch).
     Returns per punch ``area`` (of the middle surface), ``x`` = [x0, x1] and ``phi`` = [φ0, φ1]
     (degrees) of the touching points, and the ``gap_tolerance`` used. Unlike the weights of the active
     constraint points — which shrink with h when a Kirchhoff shell carries the load in a line force at
@@ -493,10 +499,18 @@ def contact_zone(space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, del
         gap = linearised_gap(sh, p, x, phi, {q: d[q].ravel() for q in GAP_QUANTITIES}, step or 0.0)
         tol = zone_tolerance(p, step, rel_gap)
         inside = p.zone.contains(x, phi) & facing_body(space, p, x, s.ravel())
-        if tol == 0.0 and inside.any():  # a fixed punch just touching: no travel, scale by the motion toward it
+        fixed = tol == 0.0 and bool(inside.any())
+        if fixed:  # a fixed punch just touching: no travel, scale by the motion toward it
             Z, _ = p.Z(sh.point(x, phi, p.zeta(sh, x, phi)))
             tol = rel_gap * float(np.max(np.abs(gap - Z)[inside]))
-        touching = (gap <= tol) & inside
+        if fixed and carrying is not None:  # contact = carrying force, or a gap at round-off (zone_points.py)
+            op, lam, row_gap = carrying
+            rows, tol = op.rows(k), tol * ROUND_OFF_GAP / ZONE_GAP
+            touching = inside & nearest_point_class(x, s.ravel(), op.x[rows], a * op.phi[rows],
+                                                    (lam[rows] > 0.0) | (row_gap[rows] <= tol),
+                                                    2.0 * np.pi * a if sh.full else None)
+        else:
+            touching = (gap <= tol) & inside
         area = float(((np.abs(det)[:, None] * W[None, :]).ravel())[touching].sum())
         entry: dict = {"area": area, "gap_tolerance": float(tol)}
         if touching.any():
