@@ -73,6 +73,11 @@ def test_headlines_are_read_by_path_and_probe_components_are_relative_to_the_pro
     assert values["contact.0.rim.mean_line_force"] == (4.0, 4.0)
     assert "contact.1.rim.mean_line_force" not in values
     assert values["stresses.bottom.von_mises_max"] == (8.0, 8.0)
+    plates = {"contact": [{"zone": {"area": 1e-3}, "rim": {"kind": "line", "mean_line_force": 667.0}},
+                          {"zone": {"area": 1e-3}, "rim": {"kind": "area", "mean_line_force": 667.0}}]}
+    values = accuracy.headline_values(plates)  # a line contact's area is zero in the limit: not a headline
+    assert "contact.0.zone.area" not in values and "contact.1.zone.area" in values
+    assert "contact.0.rim.mean_line_force" in values
     coarse = json.loads(json.dumps(summary))
     coarse["contact"][0]["force_magnitude"] = 11.0
     del coarse["contact"][0]["rim"]

@@ -57,6 +57,10 @@ HEADLINES: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = (
     ("contact.*.rim.force", (("contact.*.total_normal_force", 1.0),)),
     ("contact.*.rim.mean_line_force", ()),
 )
+#: headlines that are none where another summary entry has a value: the area of a line contact (a plate on a
+#: pipe) is zero in the limit, what a mesh gives is the width of its strip of carrying points or of the gap
+#: tolerance; its line load (rim.length, rim.mean_line_force) is the converging headline
+NOT_WHEN: dict[str, tuple[str, Any]] = {"contact.*.zone.area": ("contact.*.rim.kind", "line")}
 RATIO = 2.0  # element size of a mesh over that of the next finer one
 ASSUMED_ORDER = 1.0  # when no order can be observed (MODULE docstring)
 MIN_ORDER, MAX_ORDER = 0.5, 6.0  # observed orders are clamped into this range
@@ -100,6 +104,12 @@ def headline_values(summary: Mapping[str, Any]) -> dict[str, tuple[float, float]
                 continue
             scale = abs(float(value))
             stars = [p for p, q in zip(path.split("."), pattern.split(".")) if q == "*"]
+            if pattern in NOT_WHEN:
+                other, excluded = NOT_WHEN[pattern]
+                for star in stars:
+                    other = other.replace("*", star, 1)
+                if lookup(summary, other) == excluded:
+                    continue
             for ref_pattern, factor in refs:  # the headline's indices in the reference's pattern
                 concrete = ref_pattern
                 for star in stars[:ref_pattern.count("*")]:
