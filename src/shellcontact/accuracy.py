@@ -235,6 +235,9 @@ class Estimate:
         if self.tolerance is not None:
             acc = {p: {**e, "met": e["estimate"] is not None and e["estimate"] <= self.tolerance}
                    for p, e in acc.items()}
+        fine = self.summaries[0] if self.summaries else s
+        acc = {p: {**e, "refine": advice(self.result, fine, p).split("refine ", 1)[-1]}
+               if e["estimate"] is not None and e["estimate"] > WARN_ABOVE else e for p, e in acc.items()}
         s["accuracy"] = acc
         s["refinement"] = {"ratio": RATIO, "tolerance": self.tolerance, "stopped": self.stopped,
                            "levels": self.levels}

@@ -310,17 +310,20 @@ def _accuracy(s: Mapping[str, Any]) -> str:
     if not acc:
         return ""
     units, tol, levels = s.get("units", {}), ref.get("tolerance"), ref.get("levels", [])
+    advised = any("refine" in e for e in acc.values())  # accuracy.refine_advice, for estimates above 1 %
     rows = [[path, e["value"], _Unit(units.get(f"accuracy.{path}.value", "–")),
              "not estimated" if e["estimate"] is None else f"{100 * e['estimate']:.2g} %"
              + (" (above 1 %)" if e["estimate"] > 0.01 else ""),
              "1 (assumed)" if e["order"] is None else f"{e['order']:.2g}",
-             *([] if tol is None else ["met" if e.get("met") else "not met"])] for path, e in acc.items()]
+             *([] if tol is None else ["met" if e.get("met") else "not met"]),
+             *([e.get("refine", "")] if advised else [])] for path, e in acc.items()]
     meshes = ", ".join(f"{lv['dofs']} dofs" for lv in levels)
     intro = (f"<p>From {len(levels)} meshes, finest first ({meshes}), each coarser one with twice the element size: "
              "Richardson extrapolation with the observed order, or order 1 where none is observed "
              "(docs/outputs.md)." + (f" Tolerance {tol:g}: {html.escape(ref.get('stopped') or 'met')}." if tol else "")
              + "</p>")
-    head = ("summary path", "value", "unit", "estimated relative error", "order", *(() if tol is None else ("",)))
+    head = ("summary path", "value", "unit", "estimated relative error", "order", *(() if tol is None else ("",)),
+            *(("what to refine",) if advised else ()))
     return intro + table(rows, head, cls="headline")
 
 
