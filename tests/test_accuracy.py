@@ -109,7 +109,7 @@ def test_pressurised_cylinder_deflection_and_edge_stresses_against_the_closed_fo
 @pytest.mark.parametrize("n", [12, 16])
 def test_scordelis_lo_against_the_series_value(n):
     """The roof's vertical displacement at mid-length of the free edge, 0.3006 (the converged Kirchhoff–Love
-    value): measured ratios 2.03 at the example's 12 × 12 (true error 3.2e-3), 1.35 at 16 × 16 (9.8e-4)."""
+    value): measured ratios 2.03 at 12 × 12 (true error 3.2e-3), 1.35 at the example's 16 × 16 (9.8e-4)."""
     case = sc.load_case(EXAMPLES / "scordelis_lo.toml", sets=[f"mesh.nx={n}", f"mesh.nphi={n}"])
     est = accuracy.estimate(case)
     assert 1 / 3 <= _ratio(est, "probes.0.displacement.2", -SCORDELIS_LO) <= 3
