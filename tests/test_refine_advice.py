@@ -26,7 +26,7 @@ def _advice(est: accuracy.Estimate) -> dict[str, str]:
     """Per headline named in the accuracy warning: its advice (the text after its percentage)."""
     (warning,) = [w for w in est.warnings() if w.startswith("accuracy: estimated discretisation error above 1 %")]
     out = {}
-    for item in warning.split("run --accuracy 1e-2): ", 1)[1].split("; "):
+    for item in warning.split("run --accuracy 1e-2):\n  ", 1)[1].split(";\n  "):
         path, rest = item.split(" ", 1)
         out[path] = rest.split(" %", 1)[1]
     return out

@@ -217,7 +217,7 @@ class Estimate:
         if above:
             fine = self.summaries[0] if self.summaries else self.result.summary()
             out.append("accuracy: estimated discretisation error above 1 % (each with what to refine; --set KEY=VALUE "
-                       "or the case's [mesh], or run --accuracy 1e-2): " + "; ".join(
+                       "or the case's [mesh], or run --accuracy 1e-2):\n  " + ";\n  ".join(
                            f"{p} {100 * v:.3g} %{advice(self.result, fine, p)}"
                            for p, v in sorted(above.items(), key=lambda kv: -kv[1])))
         if missing:

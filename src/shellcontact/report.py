@@ -144,6 +144,11 @@ def page(title: str, sections: Iterable[tuple[str, str] | tuple[str, str, int]])
     )
 
 
+def _lines(message: str) -> str:
+    """A warning's text as HTML, its line breaks kept (the accuracy warning puts one headline on a line)."""
+    return "<br>".join(html.escape(line) for line in message.split("\n"))
+
+
 def _warnings(s: Mapping[str, Any]) -> str:
     """A box listing every warning of the run (each says what it means and what to do), or a line saying none."""
     items = s.get("warnings") or []
@@ -152,7 +157,7 @@ def _warnings(s: Mapping[str, Any]) -> str:
                 "outside the zones or between the constraint points, the thin-shell and small-deflection range, "
                 "yield stress: where they apply).</p>")
     # each {"code", "message"} (summary.json since the codes; older summaries hold plain strings)
-    li = "\n".join(f"<li>{html.escape(w if isinstance(w, str) else str(w.get('message', '')))}</li>" for w in items)
+    li = "\n".join(f"<li>{_lines(w if isinstance(w, str) else str(w.get('message', '')))}</li>" for w in items)
     return f'<div class="warnings"><strong>{len(items)} warning{"s" * (len(items) != 1)}</strong><ul>{li}</ul></div>'
 
 
@@ -314,7 +319,7 @@ def _accuracy(s: Mapping[str, Any]) -> str:
     rows = [[path, e["value"], _Unit(units.get(f"accuracy.{path}.value", "–")),
              "not estimated" if e["estimate"] is None else f"{100 * e['estimate']:.2g} %"
              + (" (above 1 %)" if e["estimate"] > 0.01 else ""),
-             "1 (assumed)" if e["order"] is None else f"{e['order']:.2g}",
+             "1\u00a0(assumed)" if e["order"] is None else f"{e['order']:.2g}",
              *([] if tol is None else ["met" if e.get("met") else "not met"]),
              *([e.get("refine", "")] if advised else [])] for path, e in acc.items()]
     meshes = ", ".join(f"{lv['dofs']} dofs" for lv in levels)
