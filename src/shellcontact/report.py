@@ -40,6 +40,7 @@ td.num { text-align: right; font-family: ui-monospace, monospace; white-space: n
 td.unit { color: #555; white-space: nowrap; }
 table.headline td:first-child { font-weight: 600; }
 th { background: #f3f3f3; overflow-wrap: break-word; } .set { color: #a40; font-weight: bold; }
+table.accuracy td:nth-child(-n+5) { overflow-wrap: normal; white-space: nowrap; }
 figure { display: inline-block; margin: 0.5em 0; max-width: 100%; vertical-align: top; }
 figure.half { max-width: calc(50% - 0.5em); }
 img { max-width: 100%; height: auto; border: 1px solid #ddd; }
@@ -319,7 +320,7 @@ def _accuracy(s: Mapping[str, Any]) -> str:
     rows = [[path, e["value"], _Unit(units.get(f"accuracy.{path}.value", "–")),
              "not estimated" if e["estimate"] is None else f"{100 * e['estimate']:.2g} %"
              + (" (above 1 %)" if e["estimate"] > 0.01 else ""),
-             "1\u00a0(assumed)" if e["order"] is None else f"{e['order']:.2g}",
+             "1 (assumed)" if e["order"] is None else f"{e['order']:.2g}",
              *([] if tol is None else ["met" if e.get("met") else "not met"]),
              *([e.get("refine", "")] if advised else [])] for path, e in acc.items()]
     meshes = ", ".join(f"{lv['dofs']} dofs" for lv in levels)
@@ -329,7 +330,7 @@ def _accuracy(s: Mapping[str, Any]) -> str:
              + "</p>")
     head = ("summary path", "value", "unit", "estimated relative error", "order", *(() if tol is None else ("",)),
             *(("what to refine",) if advised else ()))
-    return intro + table(rows, head, cls="headline")
+    return intro + table(rows, head, cls="headline accuracy")
 
 
 # -- details ----------------------------------------------------------------------------------------------------
