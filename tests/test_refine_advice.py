@@ -33,7 +33,7 @@ def _advice(est: accuracy.Estimate) -> dict[str, str]:
 
 
 def test_every_headline_above_one_percent_names_a_mesh_key():
-    """Scordelis–Lo at 6 x 6 (levels 6, 3, 1.5 → the count 3 halves to 1): eight headlines above 1 % (measured:
+    """Scordelis–Lo at 6 x 6 (two levels, 6 and 3: 3 cannot be halved): eight headlines above 1 % (measured:
     max |w| 32 %, the probe's w 31 %, the stresses 8.5–13 %), each named with its advice."""
     est = accuracy.estimate(sc.load_case(EXAMPLES / "scordelis_lo.toml", sets=["mesh.nx=6", "mesh.nphi=6"]), log=False)
     above = {p for p, e in est.accuracy.items() if e["estimate"] is not None and e["estimate"] > accuracy.WARN_ABOVE}
