@@ -266,7 +266,13 @@ def _headline(s: Mapping[str, Any]) -> str:
         rim = c.get("rim")
         if isinstance(rim, Mapping):
             share = rim["force"] / c["total_normal_force"] if c["total_normal_force"] else 0.0
-            if rim.get("kind") == "line":  # a line contact: the whole force is the line load
+            for pf in rim.get("point_forces", []):  # where the zone is a point (point_forces.py)
+                rows.append([f"{who}point force", pf["force"], u("force"),
+                             f"at x = {with_unit(_g(pf['x']), 'length', system)}, φ = {_g(pf['phi'])}°: a cluster "
+                             "of carrying points no wider than the elements, left out of the line/interior split"])
+            if rim.get("kind") == "point":
+                pass
+            elif rim.get("kind") == "line":  # a line contact: the whole force is the line load
                 rows.append([f"{who}line load", rim["mean_line_force"], u("force/length"),
                              f"force / length of the contact line ({with_unit(_g(rim['length']), 'length', system)})"])
             else:

@@ -39,6 +39,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .contact import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
+from .point_forces import describe, point_force_clusters
 from .punches import Punch
 from .spaces import ShellSpace
 
@@ -67,14 +68,44 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
         rows = operator.rows(k)
         step = float(np.asarray(delta, float)[forced.index(k)]) if p.mode == "force" and delta is not None else None
         lines = _rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"]) if "x" in zone else []
-        polylines.append(lines)
-        if not lines or not np.any(normal[rows] > 0.0):
+        polylines.append([])
+        force = normal[rows].copy()
+        if not np.any(force > 0.0):
             out.append(None)
             continue
-        entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], normal[rows], zone["area"])
+        points = _point_forces(space, lines, operator.x[rows], operator.phi[rows], force)
+        if not lines or not np.any(force > 0.0):  # no outline, or all of the force at points
+            out.append(_only_points(points, force, zone["area"]) if points else None)
+            continue
+        entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, zone["area"])
         polylines[-1] = rim
-        out.append(entry)
+        out.append({**entry, "point_force": sum(q["force"] for q in points), "point_forces": points})
     return out, polylines
+
+
+def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
+                  force: np.ndarray) -> list[dict]:
+    """The point forces among the carrying rows (``point_forces``), whose forces are set to 0 in ``force``
+    (in place) so that the line/interior split leaves them out."""
+    carrying = np.flatnonzero(force > 0.0)
+    pts = np.stack([x[carrying], space.mesh.shell.radius * phi[carrying]], axis=1)
+    width = np.maximum(_width_across(space, pts, np.tile([1.0, 0.0], (len(pts), 1))),
+                       _width_across(space, pts, np.tile([0.0, 1.0], (len(pts), 1))))
+    clusters = point_force_clusters(pts, force[carrying], width, lines)
+    points = describe(space.mesh.shell, pts, force[carrying], clusters)
+    for g in clusters:
+        force[carrying[g]] = 0.0
+    return points
+
+
+def _only_points(points: list[dict], rest: np.ndarray, zone_area: float) -> dict:
+    """The decomposition of a punch whose force is all at points (any rest, without an outline to split it by,
+    is counted as interior force)."""
+    interior = float(rest.sum())
+    return {"kind": "point", "length": 0.0, "force": 0.0, "interior_force": interior, "peak_line_force": 0.0,
+            "mean_line_force": 0.0, "lines": 0, "interior_area": zone_area,
+            "mean_interior_pressure": interior / zone_area if zone_area > 0 else 0.0, "per_line": [],
+            "samples": [], "point_force": sum(q["force"] for q in points), "point_forces": points}
 
 
 def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float

@@ -1,0 +1,102 @@
+"""Point forces of the contact measure: where a punch's carrying points shrink to the mesh scale.
+
+For a Kirchhoff–Love shell the contact multiplier is a measure (MODEL.md §8, docs/theory.md §9): besides the
+pressure inside a zone and the line forces along its boundary, a zone that shrinks to a point (a sphere touching
+a panel lightly, a pinched contact) carries a point force. In the discrete solution such a force sits on a few
+constraint points round one spot, whatever the mesh: a cluster of carrying points no wider than the elements
+there. Dividing it by a rim length or an area gives numbers that grow without bound under refinement, so it is
+reported as what it is, a force (N) at a position, and left out of the line/interior split (``shellcontact.rim``).
+
+A cluster: the carrying points (Λᵢ > 0) joined when closer than ``JOIN`` element widths (the constraint points
+of one element, vertices and edge midpoints, are within one width of each other). A cluster is a point force when
+
+- its force-weighted radius (the largest distance of its points from its centroid) is at most ``POINT_SIZE``
+  element widths: its extent is the mesh's, not the contact's; and
+- it is the only cluster inside its outline (the closed level line of the gap at the zone's tolerance, or, where
+  the zone has no outline, the only one at all): a rim traced by isolated points on a coarse mesh is many small
+  clusters inside one outline, not many point forces.
+
+Under refinement a point force keeps its force and position while its cluster shrinks with h; a zone that is
+really an area, resolved by a finer mesh, gets a rim instead (that one mesh cannot tell: compare two levels).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+JOIN = 1.5  # carrying points closer than this many element widths are one cluster
+POINT_SIZE = 1.0  # a cluster no wider (radius) than this many element widths is a point force
+
+
+def point_force_clusters(pts: np.ndarray, force: np.ndarray, width: np.ndarray,
+                         outlines: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Indices into ``pts`` (n, 2 in x, s = aφ; all carrying, ``force`` > 0) of each cluster that is a point
+    force (module docstring). ``width``: the element width at each point; ``outlines``: the zone's level lines
+    (n, 2) in (x, s)."""
+    if len(pts) == 0:
+        return []
+    labels = _clusters(pts, width)
+    groups = [np.flatnonzero(labels == c) for c in range(int(labels.max()) + 1)]
+    small = []
+    for k, g in enumerate(groups):
+        centre = np.average(pts[g], axis=0, weights=force[g])
+        radius = float(np.max(np.linalg.norm(pts[g] - centre, axis=1)))
+        if radius <= POINT_SIZE * float(np.median(width[g])):
+            small.append(k)
+    if not small:
+        return []
+    # which outline holds each cluster (by its first point: a point force's cluster is far smaller than it)
+    owner = _owner(np.array([pts[g[0]] for g in groups]), outlines)
+    count = np.bincount(owner + 1, minlength=len(outlines) + 1)  # owner −1: no closed outline holds it
+    alone = [count[owner[k] + 1] == 1 if owner[k] >= 0 else len(groups) == 1 for k in small]
+    return [groups[k] for k, one in zip(small, alone) if one]
+
+
+def describe(shell, pts: np.ndarray, force: np.ndarray, clusters: list[np.ndarray]) -> list[dict]:
+    """Each point force: its force (N, the normal force Σ Λᵢ|∇Zᵢ| of its cluster), and where it acts, the
+    cluster's force-weighted centroid as ``x`` (m), ``phi`` (degrees) and ``position`` [X, Y, Z] (m, the middle
+    surface's point)."""
+    a = shell.radius
+    out = []
+    for g in clusters:
+        c = np.average(pts[g], axis=0, weights=force[g])
+        phi = c[1] / a
+        out.append({"force": float(force[g].sum()), "x": float(c[0]), "phi": float(math.degrees(phi)),
+                    "position": [float(v) for v in shell.point(c[0], phi)]})
+    return sorted(out, key=lambda p: -p["force"])
+
+
+def _clusters(pts: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """Connected-component labels of the points joined when closer than JOIN × the larger of their widths."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    n = len(pts)
+    pairs = cKDTree(pts).query_pairs(JOIN * float(width.max()), output_type="ndarray")
+    if len(pairs):
+        p, q = pairs[:, 0], pairs[:, 1]
+        near = np.linalg.norm(pts[p] - pts[q], axis=1) <= JOIN * np.maximum(width[p], width[q])
+        p, q = p[near], q[near]
+    else:
+        p = q = np.zeros(0, int)
+    graph = coo_matrix((np.ones(len(p)), (p, q)), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
+
+
+def _owner(points: np.ndarray, outlines: Sequence[np.ndarray]) -> np.ndarray:
+    """For each point, the index of the smallest closed outline that contains it (−1: none)."""
+    from matplotlib.path import Path
+
+    owner = np.full(len(points), -1)
+    best = np.full(len(points), np.inf)
+    for i, ln in enumerate(outlines):
+        if len(ln) < 3 or not np.allclose(ln[0], ln[-1]):
+            continue
+        area = abs(0.5 * float(np.sum(ln[:-1, 0] * ln[1:, 1] - ln[1:, 0] * ln[:-1, 1])))
+        inside = Path(ln).contains_points(points) & (area < best)
+        owner[inside], best[inside] = i, area
+    return owner
