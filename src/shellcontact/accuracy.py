@@ -55,6 +55,7 @@ HEADLINES: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = (
     ("contact.*.rim.length", ()),
     ("contact.*.rim.force", (("contact.*.total_normal_force", 1.0),)),
     ("contact.*.rim.mean_line_force", ()),
+    ("contact.*.rim.point_forces.*.force", (("contact.*.total_normal_force", 1.0),)),
 )
 RATIO = 2.0  # element size of a mesh over that of the next finer one
 ASSUMED_ORDER = 1.0  # when no order can be observed (MODULE docstring)

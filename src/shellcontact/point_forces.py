@@ -12,6 +12,7 @@ of one element, vertices and edge midpoints, are within one width of each other)
 
 - its force-weighted radius (the largest distance of its points from its centroid) is at most ``POINT_SIZE``
   element widths: its extent is the mesh's, not the contact's; and
+- it does not reach from one edge of the shell to the opposite one (a ring across a narrow sector); and
 - it is the only cluster inside its outline (the closed level line of the gap at the zone's tolerance, or, where
   the zone has no outline, the only one at all): a rim traced by isolated points on a coarse mesh is many small
   clusters inside one outline, not many point forces.
@@ -32,10 +33,10 @@ POINT_SIZE = 1.0  # a cluster no wider (radius) than this many element widths is
 
 
 def point_force_clusters(pts: np.ndarray, force: np.ndarray, width: np.ndarray,
-                         outlines: Sequence[np.ndarray]) -> list[np.ndarray]:
+                         outlines: Sequence[np.ndarray], box: tuple[float, float, float, float]) -> list[np.ndarray]:
     """Indices into ``pts`` (n, 2 in x, s = aφ; all carrying, ``force`` > 0) of each cluster that is a point
     force (module docstring). ``width``: the element width at each point; ``outlines``: the zone's level lines
-    (n, 2) in (x, s)."""
+    (n, 2) in (x, s); ``box``: the shell's (x_min, x_max, s_min, s_max) (s_min = s_max: a full cylinder)."""
     if len(pts) == 0:
         return []
     labels = _clusters(pts, width)
@@ -44,7 +45,7 @@ def point_force_clusters(pts: np.ndarray, force: np.ndarray, width: np.ndarray,
     for k, g in enumerate(groups):
         centre = np.average(pts[g], axis=0, weights=force[g])
         radius = float(np.max(np.linalg.norm(pts[g] - centre, axis=1)))
-        if radius <= POINT_SIZE * float(np.median(width[g])):
+        if radius <= POINT_SIZE * float(np.median(width[g])) and not _spans(pts[g], box):
             small.append(k)
     if not small:
         return []
@@ -67,6 +68,16 @@ def describe(shell, pts: np.ndarray, force: np.ndarray, clusters: list[np.ndarra
         out.append({"force": float(force[g].sum()), "x": float(c[0]), "phi": float(math.degrees(phi)),
                     "position": [float(v) for v in shell.point(c[0], phi)]})
     return sorted(out, key=lambda p: -p["force"])
+
+
+def _spans(pts: np.ndarray, box: tuple[float, float, float, float]) -> bool:
+    """Whether the points reach from one edge of the shell to the opposite one: a line across a narrow model
+    (the ring of an axisymmetric state on a sector with symmetry edges), not a point."""
+    x0, x1, s0, s1 = box
+    tol = 1e-9 * max(x1 - x0, s1 - s0, 1.0)
+    across_x = pts[:, 0].min() <= x0 + tol and pts[:, 0].max() >= x1 - tol
+    across_s = s1 > s0 and pts[:, 1].min() <= s0 + tol and pts[:, 1].max() >= s1 - tol
+    return bool(across_x or across_s)
 
 
 def _clusters(pts: np.ndarray, width: np.ndarray) -> np.ndarray:

@@ -281,9 +281,21 @@ def _headline(s: Mapping[str, Any]) -> str:
                              f"{share:.0%} of the normal force; peak (mesh-dependent) "
                              f"{with_unit(_g(rim['peak_line_force']), 'force/length', system)}"])
                 if rim.get("interior_area"):
-                    rows.append([f"{who}interior pressure (mean)", rim["mean_interior_pressure"], u("pressure"),
-                                 f"{1 - share:.0%} of the normal force over "
+                    rows.append([f"{who}interior force (mean pressure)", rim["mean_interior_pressure"], u("pressure"),
+                                 f"{with_unit(_g(rim['interior_force']), 'force', system)} "
+                                 f"({rim['interior_force'] / c['total_normal_force']:.1%} of the normal force) over "
                                  f"{with_unit(_g(rim['interior_area']), 'area', system)} inside the rim"])
+                if rim.get("interior_force") and "interior_pressure" in rim:
+                    resolved = rim.get("interior_resolved", True)
+                    name = "interior pressure" + ("" if resolved else " (mesh-dependent)")
+                    note = (f"where the shell carries inside the rim, over "
+                            f"{with_unit(_g(rim['carrying_area']), 'area', system)}; "
+                            f"{with_unit(_g(rim['interior_edge_force']), 'force', system)} on the edges of that "
+                            "region (line forces where the contact ends inside the zone)")
+                    if not resolved:
+                        note = ("a faint contact inside the rim that this mesh does not resolve (its carrying points "
+                                "are scattered): refine to resolve it; " + note)
+                    rows.append([f"{who}{name}", rim["interior_pressure"], u("pressure"), note])
         rows.append([f"{who}peak nodal pressure (mesh-dependent)", c["peak_pressure"], u("pressure"),
                      "nodal Λ/ω, not a converging quantity: grows like 1/h at a line force"])
     rows.append(["max deflection |w|", s["max_abs_w"], u("length"), ""])
@@ -396,7 +408,7 @@ def _contact(s: Mapping[str, Any]) -> str:
     for e in entries:
         for k, v in e.items():
             sub = [f"{k}.{j}" for j in v] if isinstance(v, Mapping) else [k]
-            keys += [x for x in sub if x not in keys and x not in ("rim.samples", "rim.per_line")]  # summary.json
+            keys += [x for x in sub if x not in keys and x not in ("rim.samples", "rim.per_line", "rim.point_forces")]  # summary.json
 
     def value(e: Mapping[str, Any], key: str) -> Any:
         head, _, tail = key.partition(".")

@@ -39,6 +39,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .contact import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
+from .interior import interior_split
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
 from .spaces import ShellSpace
@@ -77,7 +78,8 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
         if not lines or not np.any(force > 0.0):  # no outline, or all of the force at points
             out.append(_only_points(points, force, zone["area"]) if points else None)
             continue
-        entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, zone["area"])
+        entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, operator.weights[rows],
+                                 zone["area"])
         polylines[-1] = rim
         out.append({**entry, "point_force": sum(q["force"] for q in points), "point_forces": points})
     return out, polylines
@@ -91,7 +93,9 @@ def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi
     pts = np.stack([x[carrying], space.mesh.shell.radius * phi[carrying]], axis=1)
     width = np.maximum(_width_across(space, pts, np.tile([1.0, 0.0], (len(pts), 1))),
                        _width_across(space, pts, np.tile([0.0, 1.0], (len(pts), 1))))
-    clusters = point_force_clusters(pts, force[carrying], width, lines)
+    sh = space.mesh.shell
+    box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
+    clusters = point_force_clusters(pts, force[carrying], width, lines, box)
     points = describe(space.mesh.shell, pts, force[carrying], clusters)
     for g in clusters:
         force[carrying[g]] = 0.0
@@ -165,9 +169,9 @@ def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, 
 
 
 def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
-                force: np.ndarray, zone_area: float) -> dict:
+                force: np.ndarray, weight: np.ndarray, zone_area: float) -> dict:
     """The decomposition of one punch's normal force (module docstring): a line contact's ``line_load``, or the
-    rim's line force and the interior pressure."""
+    rim's line force and the interior (``interior.interior_split``); ``weight``: the rows' ωᵢ."""
     a = space.mesh.shell.radius
     total = float(force.sum())
     carrying = force > 0.0
@@ -304,11 +308,15 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
                          "mean_line_force": part["mean_line_force"]})
     interior = max(total - rim_force, 0.0)
     interior_area = max(zone_area - inner_area, 0.0)
+    rest = ~band & ~is_line[seg_line[j]]  # the interior's carrying rows: not on the rim's band or a line load
+    idle = np.stack([x[~carrying], a * phi[~carrying]], axis=1)
+    split = interior_split(pts[rest], f[rest], weight[carrying][rest], np.maximum(across, along)[rest], idle,
+                           lambda p, d: _width_across(space, p, d))
     out = {"kind": "line" if line_parts and not _geometry_has_force(geometry) else "area", "length": length,
            "force": rim_force, "interior_force": interior,
            "peak_line_force": peak, "mean_line_force": rim_force / length if length > 0 else 0.0,
            "lines": len(per_line), "interior_area": interior_area,
-           "mean_interior_pressure": interior / interior_area if interior_area > 0 else 0.0,
+           "mean_interior_pressure": interior / interior_area if interior_area > 0 else 0.0, **split,
            "per_line": per_line, "samples": samples}
     return out, rim_lines
 
