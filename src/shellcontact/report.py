@@ -408,7 +408,8 @@ def _contact(s: Mapping[str, Any]) -> str:
     for e in entries:
         for k, v in e.items():
             sub = [f"{k}.{j}" for j in v] if isinstance(v, Mapping) else [k]
-            keys += [x for x in sub if x not in keys and x not in ("rim.samples", "rim.per_line", "rim.point_forces")]  # summary.json
+            lists = ("rim.samples", "rim.per_line", "rim.point_forces")  # in summary.json
+            keys += [x for x in sub if x not in keys and x not in lists]
 
     def value(e: Mapping[str, Any], key: str) -> Any:
         head, _, tail = key.partition(".")
