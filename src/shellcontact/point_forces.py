@@ -10,8 +10,8 @@ reported as what it is, a force (N) at a position, and left out of the line/inte
 A cluster: the carrying points (Λᵢ > 0) joined when closer than ``JOIN`` element widths (the constraint points
 of one element, vertices and edge midpoints, are within one width of each other). A cluster is a point force when
 
-- its force-weighted radius (the largest distance of its points from its centroid) is at most ``POINT_SIZE``
-  element widths: its extent is the mesh's, not the contact's; and
+- it lies within the elements round one vertex (the one nearest its force-weighted centroid): its extent is the
+  mesh's, not the contact's (a discrete point force is a vertex's row and those of its neighbours); and
 - it does not reach from one edge of the shell to the opposite one (a ring across a narrow sector); and
 - it is the only cluster inside its outline (the closed level line of the gap at the zone's tolerance, or, where
   the zone has no outline, the only one at all): a rim traced by isolated points on a coarse mesh is many small
@@ -29,14 +29,15 @@ from collections.abc import Sequence
 import numpy as np
 
 JOIN = 1.5  # carrying points closer than this many element widths are one cluster
-POINT_SIZE = 1.0  # a cluster no wider (radius) than this many element widths is a point force
 
 
-def point_force_clusters(pts: np.ndarray, force: np.ndarray, width: np.ndarray,
-                         outlines: Sequence[np.ndarray], box: tuple[float, float, float, float]) -> list[np.ndarray]:
+def point_force_clusters(pts: np.ndarray, force: np.ndarray, width: np.ndarray, outlines: Sequence[np.ndarray],
+                         mesh_p: np.ndarray, mesh_t: np.ndarray, box: tuple[float, float, float, float]
+                         ) -> list[np.ndarray]:
     """Indices into ``pts`` (n, 2 in x, s = aφ; all carrying, ``force`` > 0) of each cluster that is a point
     force (module docstring). ``width``: the element width at each point; ``outlines``: the zone's level lines
-    (n, 2) in (x, s); ``box``: the shell's (x_min, x_max, s_min, s_max) (s_min = s_max: a full cylinder)."""
+    (n, 2) in (x, s); ``mesh_p`` (2, nv), ``mesh_t`` (3, ne): the mesh; ``box``: the shell's (x_min, x_max,
+    s_min, s_max) (s_min = s_max: a full cylinder)."""
     if len(pts) == 0:
         return []
     labels = _clusters(pts, width)
@@ -44,8 +45,7 @@ def point_force_clusters(pts: np.ndarray, force: np.ndarray, width: np.ndarray,
     small = []
     for k, g in enumerate(groups):
         centre = np.average(pts[g], axis=0, weights=force[g])
-        radius = float(np.max(np.linalg.norm(pts[g] - centre, axis=1)))
-        if radius <= POINT_SIZE * float(np.median(width[g])) and not _spans(pts[g], box):
+        if _in_one_star(pts[g], centre, mesh_p, mesh_t) and not _spans(pts[g], box):
             small.append(k)
     if not small:
         return []
@@ -68,6 +68,21 @@ def describe(shell, pts: np.ndarray, force: np.ndarray, clusters: list[np.ndarra
         out.append({"force": float(force[g].sum()), "x": float(c[0]), "phi": float(math.degrees(phi)),
                     "position": [float(v) for v in shell.point(c[0], phi)]})
     return sorted(out, key=lambda p: -p["force"])
+
+
+def _in_one_star(pts: np.ndarray, centre: np.ndarray, mesh_p: np.ndarray, mesh_t: np.ndarray) -> bool:
+    """Whether every point lies in (or on) the triangles round the mesh vertex nearest ``centre``."""
+    v = int(np.argmin(np.sum((mesh_p - centre[:, None]) ** 2, axis=0)))
+    star = mesh_t[:, np.any(mesh_t == v, axis=0)]  # (3, k)
+    corners = mesh_p[:, star]  # (2, 3, k)
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]  # (2, k)
+    det = e1[0] * e2[1] - e1[1] * e2[0]
+    d = pts.T[:, :, None] - corners[:, 0][:, None, :]  # (2, n, k)
+    l1 = (d[0] * e2[1] - d[1] * e2[0]) / det
+    l2 = (e1[0] * d[1] - e1[1] * d[0]) / det
+    tol = 1e-9
+    inside = (l1 >= -tol) & (l2 >= -tol) & (l1 + l2 <= 1.0 + tol)
+    return bool(np.all(inside.any(axis=1)))
 
 
 def _spans(pts: np.ndarray, box: tuple[float, float, float, float]) -> bool:

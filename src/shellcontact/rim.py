@@ -95,7 +95,7 @@ def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi
                        _width_across(space, pts, np.tile([0.0, 1.0], (len(pts), 1))))
     sh = space.mesh.shell
     box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
-    clusters = point_force_clusters(pts, force[carrying], width, lines, box)
+    clusters = point_force_clusters(pts, force[carrying], width, lines, space.mesh.p, space.mesh.t, box)
     points = describe(space.mesh.shell, pts, force[carrying], clusters)
     for g in clusters:
         force[carrying[g]] = 0.0
