@@ -144,10 +144,10 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
             fig.colorbar(cs, ax=ax, label=f"nodal pressure Λ/ω, mesh-dependent{_unit(result, 'pressure')}",
                          ticks=MaxNLocator(6), pad=0.02)
         lines = rim_lines[k] if k < len(rim_lines) else []
-        drawn = _draw_line_force(ax, fig, result, rim, lines)
-        if not drawn and not (rim and rim.get("kind") == "point") and _contact_outline(ax, result, own):
-            act = np.asarray(status) == 1
-            ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
+        if not _draw_line_force(ax, fig, result, rim, lines) and _contact_outline(ax, result, own):
+            if not (rim and rim.get("kind") == "point"):  # a point force's vertices: its marker below
+                act = np.asarray(status) == 1
+                ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
             ax.legend(loc="upper right", fontsize=8)
         _draw_point_forces(ax, result, rim)
         xr, pr = _contact_box(own, x, phi, h, math.degrees(h / sol.shell.radius))
