@@ -110,7 +110,8 @@ def _draw_point_forces(ax, result, rim: dict | None) -> None:
     for j, pf in enumerate(points):
         ax.plot(pf["x"], pf["phi"], "r*", ms=13, mec="k", mew=0.6, label="point force" if j == 0 else None)
         ax.annotate(_q(result, pf["force"], "force"), (pf["x"], pf["phi"]), xytext=(8, 8),
-                    textcoords="offset points", fontsize=8, color="darkred")
+                    textcoords="offset points", fontsize=8, color="darkred",
+                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "darkred", "alpha": 0.85})
     if points:
         ax.legend(loc="upper right", fontsize=8)
 
