@@ -55,8 +55,12 @@ def test_panel_headlines_converge_under_refinement(panel_levels):
         change = abs(v[2] - v[1]) / max(abs(v[1]), 1e-300) if v[1] or v[2] else 0.0
         print(f" {path:22s} {v[0]:12.6g}  {v[1]:12.6g}  {v[2]:12.6g}   {change:.4f}")
         assert change <= 0.05, path
-    lengths = [e["rim"]["length"] for e in panel_levels]
-    assert abs(lengths[2] - lengths[1]) < abs(lengths[1] - lengths[0])
+    # and the change falls from level to level (measured 0→1 vs 1→2: force 136 vs 37 N, zone area 2.1e-4 vs
+    # 8.0e-5 m², rim length 2.3e-3 vs 1.4e-4 m, rim force 2 386 vs 1 786 N); not the mean line force (1.8 then
+    # 4.9 kN/m: the rim force falls by what the faint contact inside the rim takes, test below)
+    for path in ("force_magnitude", "zone.area", "rim.length", "rim.force"):
+        v = [_get(e, path) for e in panel_levels]
+        assert abs(v[2] - v[1]) < abs(v[1] - v[0]), path
 
 
 @pytest.mark.slow
