@@ -268,8 +268,9 @@ def _headline(s: Mapping[str, Any]) -> str:
             share = rim["force"] / c["total_normal_force"] if c["total_normal_force"] else 0.0
             for pf in rim.get("point_forces", []):  # where the zone is a point (point_forces.py)
                 rows.append([f"{who}point force", pf["force"], u("force"),
-                             f"at x = {with_unit(_g(pf['x']), 'length', system)}, φ = {_g(pf['phi'])}°: a cluster "
-                             "of carrying points no wider than the elements, left out of the line/interior split"])
+                             f"at x = {with_unit(_g(pf['x']), 'length', system)}, φ = {_g(pf['phi'])}°: carrying "
+                             "points within the elements round one vertex (a zone the mesh sees as a point: refine "
+                             "to tell a point from a small area), left out of the line/interior split"])
             if rim.get("kind") == "point":
                 pass
             elif rim.get("kind") == "line":  # a line contact: the whole force is the line load
