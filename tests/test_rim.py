@@ -23,8 +23,8 @@ from shellcontact.case import case_from_dict, load_case
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
-#: the headline paths of the contact decomposition under ``contact.<k>``
-HEADLINES = ("force_magnitude", "zone.area", "rim.length", "rim.force", "rim.mean_line_force")
+#: the headline paths of the contact decomposition under ``contact.<k>`` (the point forces' total: none here)
+HEADLINES = ("force_magnitude", "zone.area", "rim.length", "rim.force", "rim.mean_line_force", "rim.point_force")
 
 
 def _get(entry: dict, path: str) -> float:
@@ -35,7 +35,8 @@ def _get(entry: dict, path: str) -> float:
 
 @pytest.fixture(scope="module")
 def panel_levels():
-    """The paper's panel at ``mesh.refine`` 0, 1, 2 (18k, 71k, 280k dofs; about 2 minutes in all)."""
+    """The paper's panel at ``mesh.refine`` 0, 1, 2 (18k, 71k, 281k dofs). Measured: refine 2 alone 35 CPU s,
+    38 s wall, 2.7 GB peak (load 6); the three levels about 45 CPU s."""
     out = []
     for refine in (0, 1, 2):
         res = shellcontact.solve(load_case(EXAMPLES / "paper_panel.toml", [f"mesh.refine={refine}"]))
@@ -43,6 +44,7 @@ def panel_levels():
     return out
 
 
+@pytest.mark.slow
 def test_panel_headlines_converge_under_refinement(panel_levels):
     """Measured (refine 0, 1, 2): rim length 0.3452, 0.3429, 0.3428 m; mean line force 790.5, 788.7, 783.8 kN/m;
     rim force 272.9, 270.5, 268.7 kN; zone area 8.54, 8.32, 8.24e-3 m². Largest change from 1 to 2: 0.96 %
@@ -50,13 +52,40 @@ def test_panel_headlines_converge_under_refinement(panel_levels):
     print("\n headline                 refine 0      refine 1      refine 2    change 1→2")
     for path in HEADLINES:
         v = [_get(e, path) for e in panel_levels]
-        change = abs(v[2] / v[1] - 1)
+        change = abs(v[2] - v[1]) / max(abs(v[1]), 1e-300) if v[1] or v[2] else 0.0
         print(f" {path:22s} {v[0]:12.6g}  {v[1]:12.6g}  {v[2]:12.6g}   {change:.4f}")
         assert change <= 0.05, path
-    lengths = [e["rim"]["length"] for e in panel_levels]
-    assert abs(lengths[2] - lengths[1]) < abs(lengths[1] - lengths[0])
+    # and the change falls from level to level (measured 0→1 vs 1→2: force 136 vs 37 N, zone area 2.1e-4 vs
+    # 8.0e-5 m², rim length 2.3e-3 vs 1.4e-4 m, rim force 2 386 vs 1 786 N); not the mean line force (1.8 then
+    # 4.9 kN/m: the rim force falls by what the faint contact inside the rim takes, test below)
+    for path in ("force_magnitude", "zone.area", "rim.length", "rim.force"):
+        v = [_get(e, path) for e in panel_levels]
+        assert abs(v[2] - v[1]) < abs(v[1] - v[0]), path
 
 
+@pytest.mark.slow
+def test_panel_interior_pressure_is_labelled_mesh_dependent(panel_levels):
+    """Inside the rim the shell grazes the sphere: the largest gap there is 8.8e-7, 7.3e-8, 8.1e-9 m at refine
+    0, 1, 2 (measured), so the exact solution touches there and carries a faint pressure that only the finer
+    meshes see, on scattered rows between rows that lift off. Measured: interior force 0, 2 250, 4 072 N (0, 0.8,
+    1.5 % of the force); pressure where it carries 0, 5.50, 3.49 MPa (the mean over the zone's interior 0, 0.62,
+    1.13 MPa). It changes by 37 % from refine 1 to 2, so it is not a headline: each level with an interior force
+    says ``interior_resolved`` False (more than half of the carrying rows' area on the edges of that region) and
+    the report puts "(mesh-dependent)" next to the number. Not in accuracy.HEADLINES either. At refine 3 (1.12M
+    dofs, measured once, docs/outputs.md): interior force 8 354 N (3.1 %), pressure where it carries 3.45 MPa
+    over a growing area, still not resolved."""
+    from shellcontact.report import _headline
+
+    for e in panel_levels[1:]:
+        rim = e["rim"]
+        assert rim["interior_force"] > 0 and rim["interior_force"] <= 0.05 * e["total_normal_force"]
+        assert rim["interior_resolved"] is False
+        assert "interior pressure (mesh-dependent)" in _headline({"contact": [e], "max_abs_w": 0.0})
+    p1, p2 = (e["rim"]["interior_pressure"] for e in panel_levels[1:])
+    assert abs(p2 / p1 - 1) > 0.05  # if it ever converges here, make it a headline
+
+
+@pytest.mark.slow
 def test_panel_decomposition(panel_levels):
     """The rim carries nearly all of the force (measured 100, 99.2, 98.5 %: the rest is a faint inner contact at
     the crown), rim + interior = total, the line force's samples lie on the rim inside the zone's extent, and the
@@ -64,7 +93,9 @@ def test_panel_decomposition(panel_levels):
     for e in panel_levels:
         rim, zone = e["rim"], e["zone"]
         assert rim["kind"] == "area" and rim["lines"] == 1 and rim["samples"]
-        assert rim["force"] + rim["interior_force"] == pytest.approx(e["total_normal_force"], rel=1e-12)
+        assert rim["force"] + rim["interior_force"] + rim["point_force"] == pytest.approx(e["total_normal_force"],
+                                                                                          rel=1e-12)
+        assert rim["point_forces"] == []
         assert rim["force"] >= 0.95 * e["total_normal_force"]
         assert rim["mean_line_force"] == pytest.approx(rim["force"] / rim["length"], rel=1e-12)
         assert rim["peak_line_force"] >= rim["mean_line_force"] > 0

@@ -119,10 +119,13 @@ def _print_summary(con: Console, s: dict) -> None:
             if isinstance(zone, dict) and isinstance(zone.get("area"), (int, float)):
                 parts.append(f"zone area {q(zone['area'], 'area', path=f'contact.{i}.zone.area')}")
             rim = c.get("rim")
-            if isinstance(rim, dict):  # the converging decomposition (shellcontact.rim), not the nodal Λ/ω
+            if isinstance(rim, dict) and rim.get("kind") != "point":  # the converging decomposition (rim.py)
                 name = "line load" if rim.get("kind") == "line" else "rim line force (mean)"
                 value = q(rim["mean_line_force"], "force/length", path=f"contact.{i}.rim.mean_line_force")
                 parts.append(f"{name} {value}")
+            for j, pf in enumerate(rim.get("point_forces", []) if isinstance(rim, dict) else []):
+                parts.append(f"point force {q(pf['force'], 'force', path=f'contact.{i}.rim.point_forces.{j}.force')} "
+                             f"at x={q(pf['x'], 'length', '.4g')} phi={pf['phi']:.4g} deg")
             say(f"punch {i}:", parts)
     st = s.get("stresses")
     if st:

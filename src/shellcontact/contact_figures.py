@@ -1,9 +1,10 @@
 """The contact figures of a run: pressure.png and pressure_profiles.png (split from plots, which draws the rest).
 
 For a Kirchhoff shell the contact force is a measure (docs/theory.md §9): line forces along the zone's rim (or a
-line load), a pressure inside. The figures draw what converges as what it is — the line force as a line along
-the rim, coloured by its value in N/m (``contact.<k>.rim.samples``), with the rim's mean or the line load in the
-title, the same numbers as summary.json — and show the nodal pressure Λ/ω, which does not converge at a line
+line load), a pressure inside, point forces where a zone is a point. The figures draw what converges as what it
+is — the line force as a line along the rim, coloured by its value in N/m (``contact.<k>.rim.samples``), with the
+rim's mean or the line load in the title, the same numbers as summary.json, and each point force as a marker
+labelled with its force — and show the nodal pressure Λ/ω, which does not converge at a line
 force, labelled as mesh-dependent. Several punches: one panel each, each with its own colour scales.
 """
 
@@ -71,6 +72,9 @@ def _rim_headline(result, rim: dict | None) -> str:
     """The converging number of a punch's contact force, as summary.json has it."""
     if not rim:
         return ""
+    points = rim.get("point_forces") or []
+    if rim.get("kind") == "point":
+        return ", ".join(f"point force {_q(result, pf['force'], 'force')}" for pf in points[:3])
     name = "line load" if rim.get("kind") == "line" else "rim line force (mean)"
     return f"{name} {_q(result, rim['mean_line_force'], 'force/length')}"
 
@@ -98,6 +102,18 @@ def _draw_line_force(ax, fig, result, rim: dict | None, lines: list[np.ndarray])
     ax.plot([], [], "-", color=lc.cmap(0.6), lw=3.5, label="contact boundary")  # as on the other maps
     ax.legend(loc="upper right", fontsize=8)
     return True
+
+
+def _draw_point_forces(ax, result, rim: dict | None) -> None:
+    """Each point force (``rim.point_forces``) as a marker labelled with its force."""
+    points = (rim or {}).get("point_forces") or []
+    for j, pf in enumerate(points):
+        ax.plot(pf["x"], pf["phi"], "r*", ms=13, mec="k", mew=0.6, label="point force" if j == 0 else None)
+        ax.annotate(_q(result, pf["force"], "force"), (pf["x"], pf["phi"]), xytext=(8, 8),
+                    textcoords="offset points", fontsize=8, color="darkred",
+                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "darkred", "alpha": 0.85})
+    if points:
+        ax.legend(loc="upper right", fontsize=8)
 
 
 def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
@@ -130,9 +146,11 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
                          ticks=MaxNLocator(6), pad=0.02)
         lines = rim_lines[k] if k < len(rim_lines) else []
         if not _draw_line_force(ax, fig, result, rim, lines) and _contact_outline(ax, result, own):
-            act = np.asarray(status) == 1
-            ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
+            if not (rim and rim.get("kind") == "point"):  # a point force's vertices: its marker below
+                act = np.asarray(status) == 1
+                ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
             ax.legend(loc="upper right", fontsize=8)
+        _draw_point_forces(ax, result, rim)
         xr, pr = _contact_box(own, x, phi, h, math.degrees(h / sol.shell.radius))
         ax.set_xlim(*xr)
         ax.set_ylim(*pr)

@@ -272,7 +272,14 @@ def _headline(s: Mapping[str, Any]) -> str:
         rim = c.get("rim")
         if isinstance(rim, Mapping):
             share = rim["force"] / c["total_normal_force"] if c["total_normal_force"] else 0.0
-            if rim.get("kind") == "line":  # a line contact: the whole force is the line load
+            for pf in rim.get("point_forces", []):  # where the zone is a point (point_forces.py)
+                rows.append([f"{who}point force", pf["force"], u("force"),
+                             f"at x = {with_unit(_g(pf['x']), 'length', system)}, φ = {_g(pf['phi'])}°: carrying "
+                             "points within the elements round one vertex (a zone the mesh sees as a point: refine "
+                             "to tell a point from a small area), left out of the line/interior split"])
+            if rim.get("kind") == "point":
+                pass
+            elif rim.get("kind") == "line":  # a line contact: the whole force is the line load
                 rows.append([f"{who}line load", rim["mean_line_force"], u("force/length"),
                              f"force / length of the contact line ({with_unit(_g(rim['length']), 'length', system)})"])
             else:
@@ -281,9 +288,21 @@ def _headline(s: Mapping[str, Any]) -> str:
                              f"{share:.0%} of the normal force; peak (mesh-dependent) "
                              f"{with_unit(_g(rim['peak_line_force']), 'force/length', system)}"])
                 if rim.get("interior_area"):
-                    rows.append([f"{who}interior pressure (mean)", rim["mean_interior_pressure"], u("pressure"),
-                                 f"{1 - share:.0%} of the normal force over "
+                    rows.append([f"{who}interior force (mean pressure)", rim["mean_interior_pressure"], u("pressure"),
+                                 f"{with_unit(_g(rim['interior_force']), 'force', system)} "
+                                 f"({rim['interior_force'] / c['total_normal_force']:.1%} of the normal force) over "
                                  f"{with_unit(_g(rim['interior_area']), 'area', system)} inside the rim"])
+                if rim.get("interior_force") and "interior_pressure" in rim:
+                    resolved = rim.get("interior_resolved", True)
+                    name = "interior pressure" + ("" if resolved else " (mesh-dependent)")
+                    note = (f"where the shell carries inside the rim, over "
+                            f"{with_unit(_g(rim['carrying_area']), 'area', system)}; "
+                            f"{with_unit(_g(rim['interior_edge_force']), 'force', system)} on the edges of that "
+                            "region (line forces where the contact ends inside the zone)")
+                    if not resolved:
+                        note = ("a faint contact inside the rim that this mesh does not resolve (its carrying points "
+                                "are scattered): refine to resolve it; " + note)
+                    rows.append([f"{who}{name}", rim["interior_pressure"], u("pressure"), note])
         rows.append([f"{who}peak nodal pressure (mesh-dependent)", c["peak_pressure"], u("pressure"),
                      "nodal Λ/ω, not a converging quantity: grows like 1/h at a line force"])
     rows.append(["max deflection |w|", s["max_abs_w"], u("length"), ""])
@@ -399,7 +418,8 @@ def _contact(s: Mapping[str, Any]) -> str:
     for e in entries:
         for k, v in e.items():
             sub = [f"{k}.{j}" for j in v] if isinstance(v, Mapping) else [k]
-            keys += [x for x in sub if x not in keys and x not in ("rim.samples", "rim.per_line")]  # summary.json
+            lists = ("rim.samples", "rim.per_line", "rim.point_forces")  # in summary.json
+            keys += [x for x in sub if x not in keys and x not in lists]
 
     def value(e: Mapping[str, Any], key: str) -> Any:
         head, _, tail = key.partition(".")

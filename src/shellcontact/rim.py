@@ -39,6 +39,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from .contact import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
+from .interior import interior_split
+from .point_forces import describe, point_force_clusters
 from .punches import Punch
 from .spaces import ShellSpace
 
@@ -67,14 +69,47 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
         rows = operator.rows(k)
         step = float(np.asarray(delta, float)[forced.index(k)]) if p.mode == "force" and delta is not None else None
         lines = _rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"]) if "x" in zone else []
-        polylines.append(lines)
-        if not lines or not np.any(normal[rows] > 0.0):
+        polylines.append([])
+        force = normal[rows].copy()
+        if not np.any(force > 0.0):
             out.append(None)
             continue
-        entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], normal[rows], zone["area"])
+        points = _point_forces(space, lines, operator.x[rows], operator.phi[rows], force)
+        if not lines or not np.any(force > 0.0):  # no outline, or all of the force at points
+            out.append(_only_points(points, force, zone["area"]) if points else None)
+            continue
+        entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, operator.weights[rows],
+                                 zone["area"])
         polylines[-1] = rim
-        out.append(entry)
+        out.append({**entry, "point_force": sum(q["force"] for q in points), "point_forces": points})
     return out, polylines
+
+
+def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
+                  force: np.ndarray) -> list[dict]:
+    """The point forces among the carrying rows (``point_forces``), whose forces are set to 0 in ``force``
+    (in place) so that the line/interior split leaves them out."""
+    carrying = np.flatnonzero(force > 0.0)
+    pts = np.stack([x[carrying], space.mesh.shell.radius * phi[carrying]], axis=1)
+    width = np.maximum(_width_across(space, pts, np.tile([1.0, 0.0], (len(pts), 1))),
+                       _width_across(space, pts, np.tile([0.0, 1.0], (len(pts), 1))))
+    sh = space.mesh.shell
+    box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
+    clusters = point_force_clusters(pts, force[carrying], width, lines, space.mesh.p, space.mesh.t, box)
+    points = describe(space.mesh.shell, pts, force[carrying], clusters)
+    for g in clusters:
+        force[carrying[g]] = 0.0
+    return points
+
+
+def _only_points(points: list[dict], rest: np.ndarray, zone_area: float) -> dict:
+    """The decomposition of a punch whose force is all at points (any rest, without an outline to split it by,
+    is counted as interior force)."""
+    interior = float(rest.sum())
+    return {"kind": "point", "length": 0.0, "force": 0.0, "interior_force": interior, "peak_line_force": 0.0,
+            "mean_line_force": 0.0, "lines": 0, "interior_area": zone_area,
+            "mean_interior_pressure": interior / zone_area if zone_area > 0 else 0.0, "per_line": [],
+            "samples": [], "point_force": sum(q["force"] for q in points), "point_forces": points}
 
 
 def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float
@@ -134,9 +169,9 @@ def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, 
 
 
 def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
-                force: np.ndarray, zone_area: float) -> dict:
+                force: np.ndarray, weight: np.ndarray, zone_area: float) -> dict:
     """The decomposition of one punch's normal force (module docstring): a line contact's ``line_load``, or the
-    rim's line force and the interior pressure."""
+    rim's line force and the interior (``interior.interior_split``); ``weight``: the rows' ωᵢ."""
     a = space.mesh.shell.radius
     total = float(force.sum())
     carrying = force > 0.0
@@ -273,11 +308,15 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
                          "mean_line_force": part["mean_line_force"]})
     interior = max(total - rim_force, 0.0)
     interior_area = max(zone_area - inner_area, 0.0)
+    rest = ~band & ~is_line[seg_line[j]]  # the interior's carrying rows: not on the rim's band or a line load
+    idle = np.stack([x[~carrying], a * phi[~carrying]], axis=1)
+    split = interior_split(pts[rest], f[rest], weight[carrying][rest], np.maximum(across, along)[rest], idle,
+                           lambda p, d: _width_across(space, p, d))
     out = {"kind": "line" if line_parts and not _geometry_has_force(geometry) else "area", "length": length,
            "force": rim_force, "interior_force": interior,
            "peak_line_force": peak, "mean_line_force": rim_force / length if length > 0 else 0.0,
            "lines": len(per_line), "interior_area": interior_area,
-           "mean_interior_pressure": interior / interior_area if interior_area > 0 else 0.0,
+           "mean_interior_pressure": interior / interior_area if interior_area > 0 else 0.0, **split,
            "per_line": per_line, "samples": samples}
     return out, rim_lines
 

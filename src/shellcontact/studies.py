@@ -94,9 +94,11 @@ def summary_row(summary: dict[str, Any], probe_components: Sequence[str] = ("w",
                     row[col + suffix] = e[key]
             if isinstance(e.get("zone"), dict) and e["zone"].get("area") is not None:
                 row["zone_area" + suffix] = e["zone"]["area"]  # the area that converges (contact.contact_zone)
-            # the rim's mean line force, or a line contact's line load; empty where no rim was found (a point
-            # contact on a coarse mesh)
-            row["line_force" + suffix] = e["rim"]["mean_line_force"] if isinstance(e.get("rim"), dict) else None
+            # the rim's mean line force, or a line contact's line load; empty where there is no rim (a point
+            # force: contact.<k>.rim.point_forces)
+            rim = e.get("rim")
+            has_rim = isinstance(rim, dict) and rim.get("kind") != "point"
+            row["line_force" + suffix] = rim["mean_line_force"] if has_rim else None
     it = summary.get("iterations")
     if isinstance(it, int):
         row["iterations"] = it
