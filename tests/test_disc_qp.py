@@ -60,7 +60,7 @@ def test_disc_qp_matches_slsqp(seed):
     T = np.linalg.norm(y[m:].reshape(-1, 2), axis=1)
     print(seed, its, "iterations", [h["step"] for h in hist].count("face"), "face steps")
     assert np.all(T <= g * (1 + 1e-12))
-    assert np.any(y[:m] == 0) and np.any(T >= g * (1 - 1e-12)) and np.any(T[1:] < 0.99 * g[1:])
+    assert np.any(y[:m] == 0) and np.any(y[:m] > 0) and np.any(T >= g * (1 - 1e-12)) and np.any(T[1:] < 0.99 * g[1:])
     assert its <= 40  # measured 4-11
 
 
