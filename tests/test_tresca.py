@@ -12,7 +12,7 @@ from test_contact_solve import sphere_dict
 
 from shellcontact.analysis import default_penalty, discretize
 from shellcontact.case import case_from_dict
-from shellcontact.friction import tangential_operator
+from shellcontact.friction import solve_coulomb, tangential_operator
 from shellcontact.linalg import factorize
 from shellcontact.solvers import solve_dual
 from shellcontact.solvers.tresca import solve_tresca_dual, solve_tresca_penalty
@@ -83,3 +83,33 @@ def test_large_bound_is_tied_contact():
     assert rel(d.Lambda[act], mult[:act.size]) < 1e-8
     assert rel(d.info["T"], mult[act.size:]) < 1e-8
     assert np.all(mult[:act.size] > 0)  # the same active set is consistent: compression everywhere
+
+
+@pytest.mark.parametrize("mu", [0.3, 3.0])
+def test_coulomb_full_slip_is_mu_times_normal_force(mu):
+    """A 1 mm slide is far beyond the elastic stick range: every touching point slips, and the law's identity
+    Σ|T_i| = μ Σ Λ_i|∇Z_i| holds; the force points along the slide (off it only by the cap's curvature)."""
+    _, qp, op, top, C, c, fac = panel()
+    sol, rec = solve_coulomb(qp, C, c, lambda L: top.coulomb_bounds(op, L, mu), solve_tresca_dual,
+                             factorization=fac, cache={})
+    T, g = sol.info["T"], sol.info["bounds"]
+    state = top.states(T, g, sol.Lambda)
+    assert np.count_nonzero(state == 2) >= 6 and np.count_nonzero(state == 1) == 0  # measured: 6 slip, 75 open
+    N = op.total_normal_force(sol.Lambda)[0]
+    assert np.linalg.norm(T.reshape(-1, 2), axis=1).sum() == pytest.approx(mu * N, rel=1e-8)  # measured 1e-10
+    F = top.force(T)[0]
+    assert F[0] / np.linalg.norm(F) > 0.99  # along the slide (measured 0.99997 at μ = 3)
+    assert 0.9 < F[0] / (mu * N) <= 1.0  # measured 0.984 (μ = 0.3), 0.967 (μ = 3)
+    # the fixed point: converged, contraction measured 0.069 (μ = 0.3, 7 iterations), 0.75 (μ = 3, 19)
+    assert rec.converged and rec.iterations <= 60
+    assert rec.contraction < (0.3 if mu < 1 else 0.95)
+
+
+def test_coulomb_contraction_grows_with_mu():
+    """The fixed point's contraction factor grows with μ (measured 0.023, 0.069, 0.22, 0.75 for μ = 0.1, 0.3, 1,
+    3): the measurement behind the ``friction_contraction`` warning."""
+    _, qp, op, top, C, c, fac = panel()
+    cache: dict = {}
+    q = [solve_coulomb(qp, C, c, lambda L, mu=mu: top.coulomb_bounds(op, L, mu), solve_tresca_dual,
+                       factorization=fac, cache=cache)[1].contraction for mu in (0.1, 1.0, 3.0)]
+    assert q[0] < q[1] < q[2] < 1.0

@@ -24,7 +24,7 @@ API::
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -129,3 +129,51 @@ def tangential_operator(space: ShellSpace, op: ContactOperator) -> TangentialOpe
     order = np.arange(2 * m).reshape(2, m).T.ravel()  # interleave: row 2i + k ← block k, row i
     C = sp.vstack([C1, C2], format="csr")[order]
     return TangentialOperator(C=C, tau=tau, punch=op.punch.copy())
+
+
+#: the Coulomb fixed point stops when the bounds change by less than this, relative to the largest bound
+COULOMB_TOL = 1e-9
+#: a measured contraction factor above this gets the ``friction_contraction`` warning: the fixed point (and the
+#: static Coulomb problem's uniqueness, which it proves when below 1) is then in doubt
+COULOMB_CONTRACTION = 0.9
+
+
+@dataclass
+class CoulombRecord:
+    """The fixed point g^{k+1} = μ Λ(g^k) |∇Z| of Tresca problems (MODEL.md §11): per iteration the change
+    ‖g^{k+1} − g^k‖∞ (N), and the contraction factor q, the largest ratio of successive changes."""
+
+    iterations: int
+    changes: list[float]
+    contraction: float
+    converged: bool
+
+    def summary(self) -> dict:
+        return {"iterations": self.iterations, "contraction": self.contraction, "converged": self.converged,
+                "changes_N": self.changes}
+
+
+def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndarray], np.ndarray],
+                  tresca: Callable, max_iterations: int = 50, tol: float = COULOMB_TOL, **solver_options):
+    """Friction whose bounds depend on the normal forces, g = bounds(Λ), by the fixed point on Tresca problems:
+    g^0 = bounds(Λ) of the frictionless solution (``tresca`` with g = 0), g^{k+1} = bounds(Λ^k), until
+    ‖g^{k+1} − g^k‖∞ ≤ tol·‖g^{k+1}‖∞. Coulomb: bounds(Λ) = μ |∇Z| Λ (``TangentialOperator.coulomb_bounds``).
+    ``tresca`` is ``solvers.tresca.solve_tresca_dual`` or ``solve_tresca_penalty`` (its keyword options in
+    ``solver_options``). Returns the last Tresca solution and a ``CoulombRecord``."""
+    sol = tresca(qp, C, c, np.zeros(qp.m), **solver_options)
+    g = bounds(sol.Lambda)
+    changes: list[float] = []
+    converged = False
+    for _ in range(max_iterations):
+        sol = tresca(qp, C, c, g, **solver_options)
+        g_new = bounds(sol.Lambda)
+        changes.append(float(np.abs(g_new - g).max(initial=0.0)))
+        g = g_new
+        if changes[-1] <= tol * max(float(g.max(initial=0.0)), 1e-300):
+            converged = True
+            break
+    ratios = [b / a for a, b in zip(changes[:-1], changes[1:]) if a > 0 and b > 0]
+    record = CoulombRecord(len(changes), changes, float(max(ratios, default=0.0)), converged)
+    sol.info["bounds_used"] = sol.info["bounds"]
+    sol.info["bounds"] = g  # the bounds of the final multipliers (equal to those used, to tol, when converged)
+    return sol, record

@@ -91,17 +91,20 @@ def dual_hessian(qp: ContactQP, Bh: sp.csr_matrix, fac: Factorization) -> np.nda
 
 def solve_tresca_dual(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, tol: float = 1e-10,
                       max_iterations: int = 500, factorization: Factorization | None = None,
-                      initial: np.ndarray | None = None) -> ContactSolution:
-    """Tresca friction by the dual with disc constraints (module docstring). ``initial``: a start y = (Λ, T)."""
+                      initial: np.ndarray | None = None, cache: dict | None = None) -> ContactSolution:
+    """Tresca friction by the dual with disc constraints (module docstring). ``initial``: a start y = (Λ, T).
+    ``cache``: a dict that keeps Ŝ and the linear term between calls on the same QP, C and c (Coulomb's fixed
+    point changes only g)."""
     check_arguments(tol, max_iterations)
     C, c, g = _check(qp, C, c, g)
     t0 = time.perf_counter()
     fac = factorization if factorization is not None else factorize(qp.A)
     t1 = time.perf_counter()
-    Bh = sp.vstack([qp.B, C], format="csr")
-    S = dual_hessian(qp, Bh, fac)
-    u0 = fac.solve(qp.F)
-    lin = np.concatenate([qp.G, -c]) + Bh @ u0
+    cache = {} if cache is None else cache
+    if "S" not in cache:
+        Bh = sp.vstack([qp.B, C], format="csr")
+        cache.update(Bh=Bh, S=dual_hessian(qp, Bh, fac), lin=np.concatenate([qp.G, -c]) + Bh @ fac.solve(qp.F))
+    Bh, S, lin = cache["Bh"], cache["S"], cache["lin"]
     t2 = time.perf_counter()
     history: list = []
     y, its, ok = disc_qp(S, lin, qp.m, g, y0=initial, tol=tol, max_iterations=max_iterations, history=history)
