@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -154,25 +155,31 @@ class CoulombRecord:
 
 
 def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndarray], np.ndarray],
-                  tresca: Callable, max_iterations: int = 50, tol: float = COULOMB_TOL, **solver_options):
+                  tresca: Callable, max_iterations: int = 50, fixed_point_tol: float = COULOMB_TOL,
+                  warm: Callable[[Any], dict] | None = None, **solver_options):
     """Friction whose bounds depend on the normal forces, g = bounds(Λ), by the fixed point on Tresca problems:
     g^0 = bounds(Λ) of the frictionless solution (``tresca`` with g = 0), g^{k+1} = bounds(Λ^k), until
-    ‖g^{k+1} − g^k‖∞ ≤ tol·‖g^{k+1}‖∞. Coulomb: bounds(Λ) = μ |∇Z| Λ (``TangentialOperator.coulomb_bounds``).
+    ‖g^{k+1} − g^k‖∞ ≤ fixed_point_tol·‖g^{k+1}‖∞. Coulomb: bounds(Λ) = μ |∇Z| Λ
+    (``TangentialOperator.coulomb_bounds``).
     ``tresca`` is ``solvers.tresca.solve_tresca_dual`` or ``solve_tresca_penalty`` (its keyword options in
-    ``solver_options``). Returns the last Tresca solution and a ``CoulombRecord``."""
+    ``solver_options``); ``warm(solution)`` gives the options that start the next solve from the last one. The
+    contraction factor is measured on the changes above 1000·fixed_point_tol (below, the solver's round-off
+    decides).
+    Returns the last Tresca solution and a ``CoulombRecord``."""
     sol = tresca(qp, C, c, np.zeros(qp.m), **solver_options)
     g = bounds(sol.Lambda)
     changes: list[float] = []
     converged = False
     for _ in range(max_iterations):
-        sol = tresca(qp, C, c, g, **solver_options)
+        sol = tresca(qp, C, c, g, **solver_options, **(warm(sol) if warm is not None else {}))
         g_new = bounds(sol.Lambda)
         changes.append(float(np.abs(g_new - g).max(initial=0.0)))
         g = g_new
-        if changes[-1] <= tol * max(float(g.max(initial=0.0)), 1e-300):
+        if changes[-1] <= fixed_point_tol * max(float(g.max(initial=0.0)), 1e-300):
             converged = True
             break
-    ratios = [b / a for a, b in zip(changes[:-1], changes[1:]) if a > 0 and b > 0]
+    floor = 1e3 * fixed_point_tol * max(float(g.max(initial=0.0)), 1e-300)
+    ratios = [b / a for a, b in zip(changes[:-1], changes[1:]) if a > floor and b > floor]
     record = CoulombRecord(len(changes), changes, float(max(ratios, default=0.0)), converged)
     sol.info["bounds_used"] = sol.info["bounds"]
     sol.info["bounds"] = g  # the bounds of the final multipliers (equal to those used, to tol, when converged)
