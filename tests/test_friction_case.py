@@ -71,3 +71,12 @@ def test_coulomb_summary_entry():
     # measured 4.3e-5 with friction, 4.5e-5 without (the interpolation error of the rigid motions)
     assert s["equilibrium"]["relative_residual"] < 10 * max(base, 1e-5)
     assert not [w for w in s["warnings"] if w["code"] == "friction_contraction"]
+
+
+def test_large_mu_warns_that_the_fixed_point_does_not_contract():
+    """μ = 5 on the same panel: the fixed point stops contracting (measured q = 1.77, not converged in 50
+    iterations; q = 0.75 at μ = 3): the coded warning says the static Coulomb problem may not be unique."""
+    s = solved(friction=5.0, slide=(1e-3, 0.0, 0.0)).summary()
+    fp = s["contact"][0]["friction"]["fixed_point"]
+    assert fp["contraction"] > 0.9
+    assert "friction_contraction" in [w["code"] for w in s["warnings"]]
