@@ -55,9 +55,10 @@ def _check(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray) -> tuple
 
 def friction_residuals(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.ndarray, U: np.ndarray,
                        Lam: np.ndarray, T: np.ndarray) -> dict[str, float]:
-    """Stationarity ‖AU − F − BᵀΛ − CᵀT‖/‖F + BᵀΛ + CᵀT‖, penetration, complementarity (scaled by the largest
-    gap and force), the bound max(|T_i| − g_i)/max g and the law: slip where |T_i| < g_i (stick), and the
-    slip's component along T_i where |T_i| = g_i (must be ≤ 0), relative to the largest gap."""
+    """Stationarity ‖AU − F − BᵀΛ − CᵀT‖/‖F + BᵀΛ + CᵀT‖, penetration, max(−Λ) (dual feasibility, N),
+    complementarity (scaled by the largest gap and force), the bound max(|T_i| − g_i)/max g and the law: slip
+    where |T_i| < g_i (stick), and the slip's component along T_i where |T_i| = g_i (must be ≤ 0), relative to
+    the largest gap."""
     f = qp.F + qp.B.T @ Lam + C.T @ T
     r = qp.A @ U - f
     gap = qp.gap(U)
@@ -71,6 +72,7 @@ def friction_residuals(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.nda
     return {
         "stationarity": float(np.linalg.norm(r) / max(np.linalg.norm(f), 1e-300)),
         "penetration": float(max(0.0, -gap.min(initial=0.0)) / length),
+        "dual_feasibility": float(max(0.0, -float(Lam.min(initial=0.0)))),
         "complementarity": float(np.abs(Lam * gap).max(initial=0.0) / length / max(Lam.max(initial=0.0), 1e-300)),
         "friction_bound": float(max(0.0, float(np.max(t - g, initial=0.0))) / gscale),
         "stick_slip": float(np.linalg.norm(slip[stick], axis=1).max(initial=0.0) / length),
