@@ -100,14 +100,16 @@ def test_coulomb_full_slip_is_mu_times_normal_force(mu):
     F = top.force(T)[0]
     assert F[0] / np.linalg.norm(F) > 0.99  # along the slide (measured 0.99997 at μ = 3)
     assert 0.9 < F[0] / (mu * N) <= 1.0  # measured 0.984 (μ = 0.3), 0.967 (μ = 3)
-    # the fixed point: converged, contraction measured 0.069 (μ = 0.3, 7 iterations), 0.75 (μ = 3, 19)
+    # the fixed point: converged, contraction (geometric mean) measured 0.029 (μ = 0.3, 7 iterations), 0.33 (μ = 3,
+    # 19 iterations)
     assert rec.converged and rec.iterations <= 60
-    assert rec.contraction < (0.3 if mu < 1 else 0.95)
+    assert rec.contraction < (0.15 if mu < 1 else 0.9)
 
 
 def test_coulomb_contraction_grows_with_mu():
-    """The fixed point's contraction factor grows with μ (measured 0.023, 0.069, 0.22, 0.75 for μ = 0.1, 0.3, 1,
-    3): the measurement behind the ``friction_contraction`` warning."""
+    """The fixed point's contraction factor grows with μ (measured 0.012, 0.029, 0.11, 0.33 for μ = 0.1, 0.3, 1,
+    3; at μ = 5 it does not converge in 50 iterations): the measurement behind the ``friction_contraction``
+    warning."""
     _, qp, op, top, C, c, fac = panel()
     cache: dict = {}
     q = [solve_coulomb(qp, C, c, lambda L, mu=mu: top.coulomb_bounds(op, L, mu), solve_tresca_dual,

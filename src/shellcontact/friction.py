@@ -142,7 +142,7 @@ COULOMB_CONTRACTION = 0.9
 @dataclass
 class CoulombRecord:
     """The fixed point g^{k+1} = μ Λ(g^k) |∇Z| of Tresca problems (MODEL.md §11): per iteration the change
-    ‖g^{k+1} − g^k‖∞ (N), and the contraction factor q, the largest ratio of successive changes."""
+    ‖g^{k+1} − g^k‖∞ (N), and the contraction factor q, the geometric mean ratio of successive changes."""
 
     iterations: int
     changes: list[float]
@@ -163,8 +163,8 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
     (``TangentialOperator.coulomb_bounds``).
     ``tresca`` is ``solvers.tresca.solve_tresca_dual`` or ``solve_tresca_penalty`` (its keyword options in
     ``solver_options``); ``warm(solution)`` gives the options that start the next solve from the last one. The
-    contraction factor is measured on the changes above 1000·fixed_point_tol (below, the solver's round-off
-    decides).
+    contraction factor (geometric mean) is measured on the changes above 1000·fixed_point_tol (below, the
+    solver's round-off decides).
     Returns the last Tresca solution and a ``CoulombRecord``."""
     sol = tresca(qp, C, c, np.zeros(qp.m), **solver_options)
     g = bounds(sol.Lambda)
@@ -179,8 +179,10 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
             converged = True
             break
     floor = 1e3 * fixed_point_tol * max(float(g.max(initial=0.0)), 1e-300)
-    ratios = [b / a for a, b in zip(changes[:-1], changes[1:]) if a > floor and b > floor]
-    record = CoulombRecord(len(changes), changes, float(max(ratios, default=0.0)), converged)
+    above = [d for d in changes if d > floor]  # the geometric mean ratio: the changes oscillate (×1.7 in
+    # one step, ×0.75 on average over 46 iterations on the 32 × 32 panel), the largest ratio would mislead
+    q = (above[-1] / above[0]) ** (1.0 / (len(above) - 1)) if len(above) > 1 else 0.0
+    record = CoulombRecord(len(changes), changes, float(q), converged)
     sol.info["bounds_used"] = sol.info["bounds"]
     sol.info["bounds"] = g  # the bounds of the final multipliers (equal to those used, to tol, when converged)
     return sol, record

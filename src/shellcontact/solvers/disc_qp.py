@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as la
+import scipy.sparse as sp
 
 from ..errors import InputError
 
@@ -74,24 +75,20 @@ def _normals(y: np.ndarray, grad: np.ndarray, m: int) -> tuple[np.ndarray, np.nd
     return n, np.sum(n * grad[m:].reshape(-1, 2), axis=1)
 
 
-def _face_basis(y: np.ndarray, grad: np.ndarray, m: int, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The face's directions Z (n × k: the free variables, and the tangent of every disc on its circle) and the
-    curvature the circle adds along its tangent, κ_j/g_j with κ_j = max(−n_j·g_j, 0) its multiplier (k,)."""
+def _face_basis(y: np.ndarray, grad: np.ndarray, m: int, g: np.ndarray) -> tuple[sp.csc_matrix, np.ndarray]:
+    """The face's directions Z (n × k, sparse: the free variables, and the tangent of every disc on its circle)
+    and the curvature the circle adds along its tangent, κ_j/g_j with κ_j = max(−n_j·g_j, 0) its multiplier."""
     free, circle = _sets(y, m, g)
     n, gn = _normals(y, grad, m)
-    cols, rows, vals, curv = [], [], [], []
-    k = 0
-    for i in np.flatnonzero(free):
-        rows.append([i]), vals.append([1.0]), cols.append([k]), curv.append(0.0)
-        k += 1
-    for j in np.flatnonzero(circle):
-        rows.append([m + 2 * j, m + 2 * j + 1]), vals.append([-n[j, 1], n[j, 0]]), cols.append([k, k])
-        curv.append(max(-gn[j], 0.0) / g[j])
-        k += 1
-    Z = np.zeros((y.size, k))
-    for r, v, c in zip(rows, vals, cols):
-        Z[r, c] = v
-    return Z, np.array(curv)
+    fi = np.flatnonzero(free)
+    cj = np.flatnonzero(circle)
+    k0 = fi.size
+    rows = np.concatenate([fi, m + 2 * cj, m + 2 * cj + 1])
+    cols = np.concatenate([np.arange(k0), k0 + np.arange(cj.size), k0 + np.arange(cj.size)])
+    vals = np.concatenate([np.ones(k0), -n[cj, 1], n[cj, 0]])
+    Z = sp.csc_matrix((vals, (rows, cols)), shape=(y.size, k0 + cj.size))
+    curv = np.concatenate([np.zeros(k0), np.maximum(-gn[cj], 0.0) / np.maximum(g[cj], 1e-300)])
+    return Z, curv
 
 
 def _feasible_step(y: np.ndarray, d: np.ndarray, m: int, g: np.ndarray) -> float:
@@ -152,7 +149,8 @@ def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray 
                 return y, it, False  # no descent along −β: round-off level
         else:
             Z, curv = _face_basis(y, grad, m, g)
-            Hr = Z.T @ H @ Z + np.diag(curv)
+            ZH = np.asarray(Z.T @ H)  # k × n: Z has at most two entries per column
+            Hr = np.asarray(Z.T @ ZH.T).T + np.diag(curv)
             try:
                 step_r = la.cho_solve(la.cho_factor(Hr), -(Z.T @ grad))
             except la.LinAlgError:
@@ -166,8 +164,11 @@ def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray 
                     z = zt
                     break
                 t *= 0.5
-            else:
+            else:  # to the first bound; the variables that reach it are put on it exactly (a Λ_i left at 1e-25
+                # stays free and blocks every later face step at t_b = 0: 500 steps without progress, μ = 3)
                 z = project(y + t_b * d, m, g)
+                lam = z[:m]
+                lam[lam <= _EDGE * max(float(lam.max(initial=0.0)), 1e-300)] = 0.0
         history.append({"iteration": it, "step": step, "phi": nphi, "beta": nbeta, "energy": f0})
         y = z
     grad = H @ y + c
