@@ -9,8 +9,8 @@ N), ``slip`` (σ = C U − c, m) and ``bounds`` (g).
 
 * ``solve_tresca_dual``: y = (Λ, T), Ŝ = B̂ A⁻¹ B̂ᵀ with B̂ = [B; C], linear term Ĝ + B̂ A⁻¹F with Ĝ = (G; −c)
   (its gradient is (gap; slip)), minimised over Λ ≥ 0, |T_i| ≤ g_i by ``disc_qp`` (MPGP); U = A⁻¹(F + B̂ᵀy).
-  Ŝ is formed densely from blocked solves with one factorisation of A (3m columns, 256 at a time), so this
-  is for the rows that carry force in a zone of moderate size (m up to a few thousand).
+  Ŝ is formed densely from blocked solves with one factorisation of A (m + 2·#{g_j > 0} columns, 256 at a
+  time), so this is for contact zones of moderate size (m up to a few thousand).
 * ``solve_tresca_penalty``: minimise 𝓔(U) + Σ ω_i/(2ε) [gap_i]₋² + Σ ψ_i(σ_i), ψ_i the Huber function
   of tangential stiffness k_i = ω_i/ε capped at the force g_i: a spring per point that slides past g_i
   (regularised friction, as Abaqus' penalty friction with an elastic slip g_i/k_i). Newton's method on the
@@ -80,38 +80,68 @@ def friction_residuals(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.nda
     }
 
 
-def dual_hessian(qp: ContactQP, Bh: sp.csr_matrix, fac: Factorization) -> np.ndarray:
-    """Ŝ = B̂ A⁻¹ B̂ᵀ, dense, from blocked solves (``_BLOCK`` columns at a time)."""
-    k = Bh.shape[0]
-    S = np.empty((k, k))
-    BhT = Bh.T.tocsc()
-    for j in range(0, k, _BLOCK):
-        cols = slice(j, min(k, j + _BLOCK))
-        S[:, cols] = Bh @ fac.solve_many(BhT[:, cols].toarray())
-    return 0.5 * (S + S.T)
+def _solves(rows: sp.csr_matrix, fac: Factorization) -> np.ndarray:
+    """A⁻¹ rowsᵀ (n × k), from blocked solves (``_BLOCK`` right-hand sides at a time)."""
+    RT = rows.T.tocsc()
+    out = np.empty((rows.shape[1], rows.shape[0]))
+    for j in range(0, rows.shape[0], _BLOCK):
+        cols = slice(j, min(rows.shape[0], j + _BLOCK))
+        out[:, cols] = fac.solve_many(RT[:, cols].toarray())
+    return out
+
+
+def _pair_rows(pairs: np.ndarray) -> np.ndarray:
+    """The rows 2j, 2j+1 of C of the pairs j."""
+    return np.stack([2 * pairs, 2 * pairs + 1], axis=1).ravel().astype(int)
+
+
+def dual_hessian(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, fac: Factorization, cache: dict) -> np.ndarray:
+    """Ŝ = B̂ A⁻¹ B̂ᵀ, dense, for B̂ = [B; the pairs ``pairs`` of C]. The normal block and the solves A⁻¹C_jᵀ of
+    every pair met so far stay in ``cache``: a pair whose bound is 0 has T_j = 0 and costs nothing (Coulomb
+    and the case's Tresca bound only the rows in contact)."""
+    if "SBB" not in cache:
+        SBB = qp.B @ _solves(qp.B, fac)
+        cache.update(SBB=0.5 * (SBB + SBB.T), X={})
+    X: dict = cache["X"]
+    new = np.array([j for j in pairs if j not in X], dtype=int)
+    if new.size:
+        Xn = _solves(C[_pair_rows(new)], fac)
+        for i, j in enumerate(new):
+            X[j] = Xn[:, 2 * i:2 * i + 2]
+    Xp = np.hstack([X[j] for j in pairs]) if len(pairs) else np.zeros((qp.n, 0))
+    SBC = qp.B @ Xp
+    SCC = C[_pair_rows(pairs)] @ Xp
+    return np.block([[cache["SBB"], SBC], [SBC.T, 0.5 * (SCC + SCC.T)]])
 
 
 def solve_tresca_dual(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, tol: float = 1e-10,
                       max_iterations: int = 500, factorization: Factorization | None = None,
                       initial: np.ndarray | None = None, cache: dict | None = None) -> ContactSolution:
     """Tresca friction by the dual with disc constraints (module docstring). ``initial``: a start y = (Λ, T).
-    ``cache``: a dict that keeps Ŝ and the linear term between calls on the same QP, C and c (Coulomb's fixed
-    point changes only g)."""
+    ``cache``: a dict that keeps the blocks of Ŝ between calls on the same QP, C and c (Coulomb's fixed point
+    changes only g). Pairs with g_j = 0 are left out of the QP (T_j = 0)."""
     check_arguments(tol, max_iterations)
     C, c, g = _check(qp, C, c, g)
     t0 = time.perf_counter()
     fac = factorization if factorization is not None else factorize(qp.A)
     t1 = time.perf_counter()
     cache = {} if cache is None else cache
-    if "S" not in cache:
-        Bh = sp.vstack([qp.B, C], format="csr")
-        cache.update(Bh=Bh, S=dual_hessian(qp, Bh, fac), lin=np.concatenate([qp.G, -c]) + Bh @ fac.solve(qp.F))
-    Bh, S, lin = cache["Bh"], cache["S"], cache["lin"]
+    if "u0" not in cache:
+        cache["u0"] = fac.solve(qp.F)
+    pairs = np.flatnonzero(g > 0)  # T_j = 0 where g_j = 0: those pairs leave the QP
+    rows = _pair_rows(pairs)
+    S = dual_hessian(qp, C, pairs, fac, cache)
+    Bh = sp.vstack([qp.B, C[rows]], format="csr")
+    lin = np.concatenate([qp.G, -c[rows]]) + Bh @ cache["u0"]
     t2 = time.perf_counter()
     history: list = []
-    y, its, ok = disc_qp(S, lin, qp.m, g, y0=initial, tol=tol, max_iterations=max_iterations, history=history)
+    y0 = None
+    if initial is not None:
+        y0 = np.concatenate([initial[:qp.m], np.asarray(initial[qp.m:]).reshape(-1, 2)[pairs].ravel()])
+    y, its, ok = disc_qp(S, lin, qp.m, g[pairs], y0=y0, tol=tol, max_iterations=max_iterations, history=history)
     U = fac.solve(qp.F + Bh.T @ y)
-    Lam, T = y[:qp.m], y[qp.m:]
+    Lam, T = y[:qp.m], np.zeros(2 * qp.m)
+    T.reshape(-1, 2)[pairs] = y[qp.m:].reshape(-1, 2)
     res = friction_residuals(qp, C, c, g, U, Lam, T)
     if not ok:
         raise SolverError(f"tresca dual: MPGP did not reach the tolerance {tol:g} in {its} iterations",
