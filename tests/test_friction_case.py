@@ -80,3 +80,14 @@ def test_large_mu_warns_that_the_fixed_point_does_not_contract():
     fp = s["contact"][0]["friction"]["fixed_point"]
     assert not fp["converged"] and fp["contraction"] > 0.9
     assert "friction_contraction" in [w["code"] for w in s["warnings"]]
+
+
+def test_penalty_and_dual_agree_on_coulomb():
+    """The same Coulomb case by the penalty (regularised friction, its default ε) and by the dual: the friction and
+    normal forces agree to the penalty's O(ε) (measured 4e-6 relative)."""
+    d = solved("dual", friction=0.3, slide=(1e-3, 0.0, 0.0)).summary()["contact"][0]
+    p = solved("penalty", friction=0.3, slide=(1e-3, 0.0, 0.0)).summary()["contact"][0]
+    assert p["friction"]["method"] == "tresca-penalty" and d["friction"]["method"] == "tresca-dual"
+    scale = abs(d["friction"]["force"][0])
+    assert np.allclose(p["friction"]["force"], d["friction"]["force"], rtol=0, atol=4e-5 * scale)
+    assert p["total_normal_force"] == pytest.approx(d["total_normal_force"], rel=4e-5)
