@@ -80,9 +80,10 @@ def attach_friction(result: Any, friction: dict) -> None:
         entry["method"] = friction["method"]
     result.contact.friction = entries
     if not record.converged or record.contraction > COULOMB_CONTRACTION:
-        text = (f"friction: the fixed point on the normal forces {'did not converge' if not record.converged else ''}"
-                f"{' and ' if not record.converged else ''}contracts by {record.contraction:.3g} per iteration "
-                f"(> {COULOMB_CONTRACTION}): the static Coulomb problem may have several solutions; lower μ or "
-                "load in steps")
+        state = (f"did not converge in {record.iterations} iterations" if not record.converged
+                 else f"contracts only by {record.contraction:.3g} per iteration (> {COULOMB_CONTRACTION})")
+        text = (f"friction: the fixed point of the friction bounds on the normal forces {state}: the static friction "
+                "problem may have several solutions, and this result is not one of them unless it converged; lower "
+                "the friction coefficient or the Tresca bound, or the slide")
         result.info.setdefault("warnings", []).append(ResultWarning("friction_contraction", text))
         print(f"warning: {text}", file=sys.stderr)
