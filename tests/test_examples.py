@@ -111,6 +111,8 @@ def test_example_solves_in_equilibrium(path):
                                                     rel=1e-8, abs=1e-8 * spec.force)
             else:
                 cf = cf + by_punch[k]
+            if res.contact.friction:  # the friction force on the shell (summary contact.<k>.friction.force)
+                cf = cf + np.array(res.contact.friction[k]["force"])
         normal = float(res.contact.operator.total_normal_force(res.contact.Lambda).sum())  # self-balanced too
         kkt = s["kkt"]
         scale_len = max(s["max_abs_w"], 1e-300)

@@ -33,6 +33,7 @@ from .contact import ContactOperator, contact_operator, contact_zone, penetratio
 from .errors import InputError, SolverError
 from .floating import Floating
 from .floating import analyse as analyse_floating
+from .friction_case import attach_friction, has_friction, solve_friction
 from .linalg import BACKENDS, Factorization, factorize
 from .loads import load_vector
 from .mesh import ShellMesh, build_mesh
@@ -154,6 +155,7 @@ class ContactResult:
     between: np.ndarray  # per punch: largest penetration at edge midpoints between constraint points
     #: () → (zone, rim, rim_lines): computed when first read (``zone``, ``rim``, ``rim_lines``)
     derive: Callable[[], tuple[list, list, list]] | None = field(default=None, repr=False)
+    friction: list[dict] | None = None  # per punch, with friction (friction_case.attach_friction)
     _derived: tuple[list, list, list] | None = field(default=None, init=False, repr=False)
 
     def _post(self) -> tuple[list, list, list]:
@@ -192,6 +194,8 @@ class ContactResult:
             entry["zone"] = {**zone, "state": state}
             if rim is not None:
                 entry["rim"] = rim
+        for entry, fr in zip(out, self.friction or []):
+            entry["friction"] = fr
         return out
 
     def warnings(self, units: str = "SI") -> list[str]:
@@ -555,6 +559,13 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
         return _checked(Result(case=case, solution=sol, timings=timings, info=info, discretization=d))
 
     setup = prepare_contact(case, d, opts, timer, warm_start=warm_start, max_memory=max_memory, factorizer=factorizer)
+    if has_friction(case):  # friction_case: the frictionless path below stays as it was
+        with timer.stage("solve"):
+            cs, friction = solve_friction(case, d, setup, opts.method, opts.tolerance)
+        result = contact_result(case, d, opts, timer, setup.info, cs, lazy=True)
+        attach_friction(result, friction)
+        result.check_pending = False
+        return _checked(result)
     with timer.stage("solve"):
         cs = _solve_contact(setup.qp, opts, setup.factorization, setup.initial_U, setup.initial_active, setup.eps,
                             progress, setup.screen)

@@ -32,6 +32,7 @@ from .material import MATERIALS, Material, check_stiffness_range
 from .mesh import PATTERNS, MeshSpec
 from .options import SolverOptions
 from .punches import EXTENT, HALF_SPACE, PUNCH, SHAPES, ZONE, PunchSpec, parse_punches
+from .punches.friction_spec import FRICTION
 from .schema import Key, Table, check_unknown
 from .solvers.methods import METHODS
 from .supports import SUPPORTS, Supports
@@ -205,7 +206,7 @@ DOC_TABLES: dict[str, Table] = {
     "shell": SHELL, "material": MATERIAL, "supports": SUPPORTS_TABLE, "mesh": MESH, "mesh.grading": GRADING,
     "loads": LOADS, "loads.point": POINT_LOAD, "loads.line": LINE_LOAD, "probes": PROBE, "solver": SOLVER,
     "punch": PUNCH, "punch.zone": ZONE, "punch.extent": EXTENT, "punch.extent.half_spaces": HALF_SPACE,
-    "units": UNITS,
+    "punch.friction": FRICTION, "units": UNITS,
     **{f"punch.{name}": Table(f"punch.{name}", shape.keys, shape.doc) for name, shape in SHAPES.items()},
 }
 

@@ -330,30 +330,7 @@ def contact_operator(space: ShellSpace, punches: Sequence[Punch], points: str = 
     if not (np.all(np.isfinite(G)) and np.all(np.isfinite(grad))):
         bad = int(np.nonzero(~(np.isfinite(G) & np.all(np.isfinite(grad), axis=0)))[0][0])
         raise InputError(f"punch.{punch[bad]}", "Z or its gradient is not finite at a contact point")
-    e1, e2, n = frame(phi)
-    g1, g2, gn = (np.sum(grad * e, axis=0) for e in (e1, e2, n))
-    cu, cv, cw, cwx, cws = g1, g2 * (1.0 + zeta / a), gn, -zeta * g1, -zeta * g2
-    isv = vertex >= 0
-    rv = np.nonzero(isv)[0]
-    vv = vertex[rv]
-    wd = space.w_vertex_dofs(vv, ("w", "w_x", "w_s")).reshape(-1, 3)
-    cols = np.concatenate([space.u_dofs(vv), space.v_dofs(vv), wd[:, 0], wd[:, 1], wd[:, 2]])
-    vals = np.concatenate([cu[rv], cv[rv], cw[rv], cwx[rv], cws[rv]])
-    rows = np.tile(rv, 5)
-    B = sp.csr_matrix((vals, (rows, cols)), shape=(x.size, space.ndofs))
-    rf = np.nonzero(~isv)[0]
-    if rf.size:
-        E = space.point_operators(x[rf], s[rf], ("u", "v", "w", "w_x", "w_s"))
-        Bf = (
-            sp.diags(cu[rf]) @ E["u"]
-            + sp.diags(cv[rf]) @ E["v"]
-            + sp.diags(cw[rf]) @ E["w"]
-            + sp.diags(cwx[rf]) @ E["w_x"]
-            + sp.diags(cws[rf]) @ E["w_s"]
-        )
-        sel = sp.csr_matrix((np.ones(rf.size), (rf, np.arange(rf.size))), shape=(x.size, rf.size))
-        B = (B + sel @ Bf).tocsr()
-    B.eliminate_zeros()
+    B = surface_rows(space, x, s, zeta, vertex, grad)
     force_punches = [k for k, p in enumerate(punches) if p.force_controlled]
     D = None
     if force_punches:
@@ -381,6 +358,40 @@ def contact_operator(space: ShellSpace, punches: Sequence[Punch], points: str = 
         twins=twins,
         ends=np.where(facet >= 0, m.mesh.facets[:, np.maximum(facet, 0)], -1),
     )
+
+
+def surface_rows(space: ShellSpace, x: np.ndarray, s: np.ndarray, zeta: np.ndarray, vertex: np.ndarray,
+                 directions: np.ndarray) -> sp.csr_matrix:
+    """Rows (m, ndofs) giving directions[:, i]·U(M_i), U(M) the Kirchhoff displacement of the face point
+    M_i = Φ(x_i, s_i/a) + ζ_i n (MODEL.md §5, (4.9)): five entries at a vertex row (vertex ≥ 0), the
+    interpolation operators at an edge-midpoint row. B is these rows with directions ∇Z(M_i); friction's
+    tangential rows (``friction``) are them with the punch's tangent vectors."""
+    a = space.mesh.shell.radius
+    e1, e2, n = frame(s / a)
+    g1, g2, gn = (np.sum(directions * e, axis=0) for e in (e1, e2, n))
+    cu, cv, cw, cwx, cws = g1, g2 * (1.0 + zeta / a), gn, -zeta * g1, -zeta * g2
+    isv = vertex >= 0
+    rv = np.nonzero(isv)[0]
+    vv = vertex[rv]
+    wd = space.w_vertex_dofs(vv, ("w", "w_x", "w_s")).reshape(-1, 3)
+    cols = np.concatenate([space.u_dofs(vv), space.v_dofs(vv), wd[:, 0], wd[:, 1], wd[:, 2]])
+    vals = np.concatenate([cu[rv], cv[rv], cw[rv], cwx[rv], cws[rv]])
+    rows = np.tile(rv, 5)
+    B = sp.csr_matrix((vals, (rows, cols)), shape=(x.size, space.ndofs))
+    rf = np.nonzero(~isv)[0]
+    if rf.size:
+        E = space.point_operators(x[rf], s[rf], ("u", "v", "w", "w_x", "w_s"))
+        Bf = (
+            sp.diags(cu[rf]) @ E["u"]
+            + sp.diags(cv[rf]) @ E["v"]
+            + sp.diags(cw[rf]) @ E["w"]
+            + sp.diags(cwx[rf]) @ E["w_x"]
+            + sp.diags(cws[rf]) @ E["w_s"]
+        )
+        sel = sp.csr_matrix((np.ones(rf.size), (rf, np.arange(rf.size))), shape=(x.size, rf.size))
+        B = (B + sel @ Bf).tocsr()
+    B.eliminate_zeros()
+    return B
 
 
 def point_flexibility(shell, x: np.ndarray, phi: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ import numpy as np
 from ..errors import InputError
 from ..schema import Key, Table
 from .extent import EXTENT, Extent, parse_extent
+from .friction_spec import FRICTION_KEYS, FrictionSpec, check_slide, parse_friction
 from .shapes import SHAPES, unit
 
 ZONE = Table("zone", (
@@ -44,6 +45,7 @@ PUNCH = Table("punch", (
     Key("extent", "table", "a body of finite size: the shape is kept inside a box and half-spaces (global "
         "coordinates of the given position; they move with the punch); contact only where the body is",
         table=EXTENT, default=None, default_doc="unbounded", allowed="see below"),
+    *FRICTION_KEYS,
 ))
 
 
@@ -69,6 +71,8 @@ class PunchSpec:
     zone_phi: tuple[float, float] | None = None
     zone_gap: float | None = None
     extent: Extent | None = None  # None: the shape is unbounded
+    friction: FrictionSpec = FrictionSpec()  # frictionless by default
+    slide: np.ndarray | None = None  # m, a tangential rigid translation (friction drags the shell)
 
     @property
     def where(self) -> str:
@@ -90,7 +94,8 @@ def parse_punch(raw: Any, index: int = 0) -> PunchSpec:
     kind = SHAPES.get(shape) if isinstance(shape, str) else None
     if kind is None:
         raise InputError(f"{where}.shape", f"must be one of {', '.join(SHAPES)}, got {shape!r}")
-    v = PUNCH.parse(raw, where, keys=PUNCH.keys + kind.keys)
+    friction = parse_friction(raw.get("friction"), f"{where}.friction")
+    v = PUNCH.parse({k: val for k, val in raw.items() if k != "friction"}, where, keys=PUNCH.keys + kind.keys)
     if v["indentation"] is not None and v["force"] is not None:
         raise InputError(f"{where}.force", "give either 'indentation' or 'force', not both")
     mode = "indentation" if v["indentation"] is not None else "force" if v["force"] is not None else "fixed"
@@ -99,6 +104,8 @@ def parse_punch(raw: Any, index: int = 0) -> PunchSpec:
         if mode == "fixed":
             raise InputError(f"{where}.direction", "is used only with 'indentation' or 'force' (it would be ignored)")
         direction = unit(v["direction"], f"{where}.direction")
+    slide = None if v["slide"] is None else np.asarray(v["slide"], float)
+    check_slide(slide, direction, where)
     zone = v["zone"] or {"x": None, "phi": None, "gap": None}
     if zone["gap"] is not None and (zone["x"] is not None or zone["phi"] is not None):
         raise InputError(f"{where}.zone.gap", "give either the ranges x/phi or an automatic-zone gap, not both")
@@ -118,6 +125,8 @@ def parse_punch(raw: Any, index: int = 0) -> PunchSpec:
         zone_phi=zone["phi"],
         zone_gap=zone["gap"],
         extent=parse_extent(v["extent"], f"{where}.extent"),
+        friction=friction,
+        slide=slide,
     )
 
 

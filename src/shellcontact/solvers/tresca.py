@@ -1,0 +1,238 @@
+"""Contact with Tresca friction (MODEL.md §11): the dual with disc constraints and the penalty (regularised)
+primal. Both take the frictionless QP (``qp.ContactQP``) and the friction data of the reduced problem:
+
+    C (2m × n): the tangential rows, pairs 2i, 2i+1 of constraint row i (``friction.tangential_operator``, reduced)
+    c (2m,): the punches' slides on the pairs; g (m,): the bounds g_i ≥ 0 (N)
+
+and return a ``ContactSolution`` whose ``info`` holds ``T`` (2m,: the tangential nodal forces on the shell,
+N), ``slip`` (σ = C U − c, m) and ``bounds`` (g).
+
+* ``solve_tresca_dual``: y = (Λ, T), Ŝ = B̂ A⁻¹ B̂ᵀ with B̂ = [B; C], linear term Ĝ + B̂ A⁻¹F with Ĝ = (G; −c)
+  (its gradient is (gap; slip)), minimised over Λ ≥ 0, |T_i| ≤ g_i by ``disc_qp`` (MPGP); U = A⁻¹(F + B̂ᵀy).
+  Ŝ is formed densely from blocked solves with one factorisation of A (m + 2·#{g_j > 0} columns, 256 at a
+  time), so this is for contact zones of moderate size (m up to a few thousand).
+* ``solve_tresca_penalty``: minimise 𝓔(U) + Σ ω_i/(2ε) [gap_i]₋² + Σ ψ_i(σ_i), ψ_i the Huber function
+  of tangential stiffness k_i = ω_i/ε capped at the force g_i: a spring per point that slides past g_i
+  (regularised friction, as Abaqus' penalty friction with an elastic slip g_i/k_i). Newton's method on the
+  (piecewise twice differentiable, convex) energy with a backtracking line search; U_ε → U as ε → 0, the
+  slip in stick is O(ε).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import InputError, SolverError
+from ..linalg import Factorization, factorize
+from .disc_qp import disc_qp
+from .qp import ContactQP, ContactSolution, check_arguments
+
+_BLOCK = 256  # right-hand sides per blocked solve when forming Ŝ
+#: the penalised equation's relative residual accepted once Newton's energy stops decreasing (round-off: the
+#: penalty springs raise cond(K); measured 2.5e-9 on the paper panel at ε/10, 1.9e-6 with stick springs ω/ε on
+#: the points in contact at the default ε, Tresca 1e7 Pa): below the penalty's O(ε) error
+_FLOOR = 1e-5
+
+
+def _check(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray,
+                                                                                 np.ndarray]:
+    if qp.k:
+        raise InputError("friction", "force-controlled punches and shells held by contact alone are not supported "
+                                     "with friction yet (give the punch an indentation and the shell its supports)")
+    C = sp.csr_matrix(C, dtype=float)
+    if C.shape != (2 * qp.m, qp.n):
+        raise InputError("friction.C", f"must have shape (2m, n) = {(2 * qp.m, qp.n)}, got {C.shape}")
+    c = np.asarray(c, float).reshape(-1)
+    g = np.asarray(g, float).reshape(-1)
+    if c.shape != (2 * qp.m,) or g.shape != (qp.m,):
+        raise InputError("friction", f"slides c need {2 * qp.m} entries and bounds g {qp.m}")
+    if not (np.all(np.isfinite(g)) and np.all(g >= 0)):
+        raise InputError("friction.bound", "the friction bounds must be finite and ≥ 0 (N)")
+    return C, c, g
+
+
+def friction_residuals(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.ndarray, U: np.ndarray,
+                       Lam: np.ndarray, T: np.ndarray) -> dict[str, float]:
+    """Stationarity ‖AU − F − BᵀΛ − CᵀT‖/‖F + BᵀΛ + CᵀT‖, penetration, max(−Λ) (dual feasibility, N),
+    complementarity (scaled by the largest gap and force), the bound max(|T_i| − g_i)/max g and the law: slip
+    where |T_i| < g_i (stick), and the slip's component along T_i where |T_i| = g_i (must be ≤ 0), relative to
+    the largest gap."""
+    f = qp.F + qp.B.T @ Lam + C.T @ T
+    r = qp.A @ U - f
+    gap = qp.gap(U)
+    slip = (C @ U - c).reshape(-1, 2)
+    Tm = np.asarray(T).reshape(-1, 2)
+    t = np.linalg.norm(Tm, axis=1)
+    length = max(float(np.abs(gap).max(initial=0.0)), float(np.abs(slip).max(initial=0.0)), 1e-300)
+    gscale = max(float(g.max(initial=0.0)), 1e-300)
+    stick = t < (1.0 - 1e-6) * g
+    along = np.sum(slip * Tm, axis=1) / np.maximum(t, 1e-300)
+    return {
+        "stationarity": float(np.linalg.norm(r) / max(np.linalg.norm(f), 1e-300)),
+        "penetration": float(max(0.0, -gap.min(initial=0.0)) / length),
+        "dual_feasibility": float(max(0.0, -float(Lam.min(initial=0.0)))),
+        "complementarity": float(np.abs(Lam * gap).max(initial=0.0) / length / max(Lam.max(initial=0.0), 1e-300)),
+        "friction_bound": float(max(0.0, float(np.max(t - g, initial=0.0))) / gscale),
+        "stick_slip": float(np.linalg.norm(slip[stick], axis=1).max(initial=0.0) / length),
+        "slip_direction": float(max(0.0, float(along[~stick].max(initial=0.0))) / length),
+    }
+
+
+def _solves(rows: sp.csr_matrix, fac: Factorization) -> np.ndarray:
+    """A⁻¹ rowsᵀ (n × k), from blocked solves (``_BLOCK`` right-hand sides at a time)."""
+    RT = rows.T.tocsc()
+    out = np.empty((rows.shape[1], rows.shape[0]))
+    for j in range(0, rows.shape[0], _BLOCK):
+        cols = slice(j, min(rows.shape[0], j + _BLOCK))
+        out[:, cols] = fac.solve_many(RT[:, cols].toarray())
+    return out
+
+
+def _pair_rows(pairs: np.ndarray) -> np.ndarray:
+    """The rows 2j, 2j+1 of C of the pairs j."""
+    return np.stack([2 * pairs, 2 * pairs + 1], axis=1).ravel().astype(int)
+
+
+def dual_hessian(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, fac: Factorization, cache: dict) -> np.ndarray:
+    """Ŝ = B̂ A⁻¹ B̂ᵀ, dense, for B̂ = [B; the pairs ``pairs`` of C]. The normal block and the solves A⁻¹C_jᵀ of
+    every pair met so far stay in ``cache``: a pair whose bound is 0 has T_j = 0 and costs nothing (Coulomb
+    and the case's Tresca bound only the rows in contact)."""
+    if "SBB" not in cache:
+        SBB = qp.B @ _solves(qp.B, fac)
+        cache.update(SBB=0.5 * (SBB + SBB.T), X={})
+    X: dict = cache["X"]
+    new = np.array([j for j in pairs if j not in X], dtype=int)
+    if new.size:
+        Xn = _solves(C[_pair_rows(new)], fac)
+        for i, j in enumerate(new):
+            X[j] = Xn[:, 2 * i:2 * i + 2]
+    Xp = np.hstack([X[j] for j in pairs]) if len(pairs) else np.zeros((qp.n, 0))
+    SBC = qp.B @ Xp
+    SCC = C[_pair_rows(pairs)] @ Xp
+    return np.block([[cache["SBB"], SBC], [SBC.T, 0.5 * (SCC + SCC.T)]])
+
+
+def solve_tresca_dual(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, tol: float = 1e-10,
+                      max_iterations: int = 500, factorization: Factorization | None = None,
+                      initial: np.ndarray | None = None, cache: dict | None = None) -> ContactSolution:
+    """Tresca friction by the dual with disc constraints (module docstring). ``initial``: a start y = (Λ, T).
+    ``cache``: a dict that keeps the blocks of Ŝ between calls on the same QP, C and c (Coulomb's fixed point
+    changes only g). Pairs with g_j = 0 are left out of the QP (T_j = 0)."""
+    check_arguments(tol, max_iterations)
+    C, c, g = _check(qp, C, c, g)
+    t0 = time.perf_counter()
+    fac = factorization if factorization is not None else factorize(qp.A)
+    t1 = time.perf_counter()
+    cache = {} if cache is None else cache
+    if "u0" not in cache:
+        cache["u0"] = fac.solve(qp.F)
+    pairs = np.flatnonzero(g > 0)  # T_j = 0 where g_j = 0: those pairs leave the QP
+    rows = _pair_rows(pairs)
+    S = dual_hessian(qp, C, pairs, fac, cache)
+    Bh = sp.vstack([qp.B, C[rows]], format="csr")
+    lin = np.concatenate([qp.G, -c[rows]]) + Bh @ cache["u0"]
+    t2 = time.perf_counter()
+    history: list = []
+    y0 = None
+    if initial is not None:
+        y0 = np.concatenate([initial[:qp.m], np.asarray(initial[qp.m:]).reshape(-1, 2)[pairs].ravel()])
+    y, its, ok = disc_qp(S, lin, qp.m, g[pairs], y0=y0, tol=tol, max_iterations=max_iterations, history=history)
+    U = fac.solve(qp.F + Bh.T @ y)
+    Lam, T = y[:qp.m], np.zeros(2 * qp.m)
+    T.reshape(-1, 2)[pairs] = y[qp.m:].reshape(-1, 2)
+    res = friction_residuals(qp, C, c, g, U, Lam, T)
+    if not ok:
+        raise SolverError(f"tresca dual: MPGP did not reach the tolerance {tol:g} in {its} iterations",
+                          residuals=res, iterations=its)
+    t3 = time.perf_counter()
+    return ContactSolution(
+        U=U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=None, iterations=its, residuals=res,
+        method="tresca-dual", history=history, energy=qp.energy(U),
+        timings={"factorization": t1 - t0, "schur": t2 - t1, "solve": t3 - t2, "total": t3 - t0},
+        info={"T": T, "slip": C @ U - c, "bounds": g, "gap": qp.gap(U)})
+
+
+def _tangential(sig: np.ndarray, k: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The Huber spring at slips σ (m, 2): the force on the shell T = −ψ'(σ) (m, 2), the blocks of ψ'' (m, 2, 2),
+    the blocks of its majorant (g/|σ|)·I in slip (the curvature of the quadratic that touches g|σ| from above at
+    σ, so that a step on it decreases ψ), and Σ ψ(σ)."""
+    r = np.linalg.norm(sig, axis=1)
+    slide = k * r > g
+    rs = np.maximum(r, 1e-300)
+    T = np.where(slide[:, None], -(g / rs)[:, None] * sig, -k[:, None] * sig)
+    n = sig / rs[:, None]
+    eye = np.eye(2)[None]
+    soft = np.where(slide, g / rs, k)[:, None, None]
+    Hs = np.where(slide[:, None, None], soft * (eye - n[:, :, None] * n[:, None, :]), soft * eye)
+    psi = np.where(slide, g * r - 0.5 * g**2 / np.maximum(k, 1e-300), 0.5 * k * r**2)
+    return T, Hs, soft * eye, float(psi.sum())
+
+
+def solve_tresca_penalty(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, epsilon: float,
+                         tol: float = 1e-10, max_iterations: int = 100, initial_U: np.ndarray | None = None,
+                         backend: str = "auto") -> ContactSolution:
+    """Tresca friction by penalty: normal springs ω_i/ε, tangential springs ω_i/ε capped at g_i (module
+    docstring). Newton with backtracking (a step on the slip's majorant (g/|σ|)·I where Newton needs
+    a step below ¼: its tangent has no stiffness along the slip); stops when the penalised equation's residual is below
+    tol × ‖F + BᵀΛ + CᵀT‖ or below ``_FLOOR`` once the energy stops decreasing (round-off)."""
+    check_arguments(tol, max_iterations)
+    if not (np.isfinite(epsilon) and epsilon > 0):
+        raise InputError("solver.penalty", f"must be a positive number, got {epsilon!r}")
+    C, c, g = _check(qp, C, c, g)
+    t0 = time.perf_counter()
+    kn = qp.weights / epsilon
+    U = None if initial_U is None else np.asarray(initial_U, float).copy()
+
+    def state(U: np.ndarray):
+        gap = qp.gap(U)
+        Lam = kn * np.maximum(-gap, 0.0)
+        T, Hs, Hm, psi = _tangential((C @ U - c).reshape(-1, 2), kn, g)
+        E = qp.energy(U) + 0.5 * float(np.sum(kn * np.maximum(-gap, 0.0) ** 2)) + psi
+        return E, Lam, T.ravel(), (Hs, Hm), gap
+
+    if initial_U is None:  # from the stuck state: every spring linear (the slips then grow from small values,
+        # where Newton's model of the slip holds; from U = 0 every point starts sliding by the whole slide and
+        # Newton crawls: 40 steps without converging on the paper panel)
+        Bn = qp.B[qp.G < 0]
+        K = qp.A + Bn.T @ sp.diags(kn[qp.G < 0]) @ Bn + C.T @ sp.diags(np.repeat(kn, 2)) @ C
+        U = factorize(K, backend).solve(qp.F - Bn.T @ (kn[qp.G < 0] * qp.G[qp.G < 0]) + C.T @ (np.repeat(kn, 2) * c))
+    history: list = []
+    E, Lam, T, Hs, gap = state(U)
+    for it in range(1, max_iterations + 1):
+        grad = qp.A @ U - qp.F - qp.B.T @ Lam - C.T @ T
+        Bn = qp.B[gap < 0]
+        Kn = qp.A + Bn.T @ sp.diags(kn[gap < 0]) @ Bn
+        slope = 0.0
+        for blocks, shortest in zip(Hs, (0.25, 1e-10)):  # Newton; if it needs a short step, the majorant
+            K = Kn + C.T @ sp.block_diag(list(blocks), format="csr") @ C
+            dU = -factorize(K, backend).solve(grad)
+            slope = float(grad @ dU)
+            t = 1.0
+            while True:
+                trial = state(U + t * dU)
+                if trial[0] <= E + 1e-4 * t * slope or t < shortest:
+                    break
+                t *= 0.5
+            if trial[0] <= E + 1e-4 * t * slope:
+                break
+        decrease = E - trial[0]
+        U = U + t * dU
+        E, Lam, T, Hs, gap = trial
+        f = np.linalg.norm(qp.F + qp.B.T @ Lam + C.T @ T)
+        resid = np.linalg.norm(qp.A @ U - qp.F - qp.B.T @ Lam - C.T @ T) / max(f, 1e-300)
+        history.append({"iteration": it, "step": t, "energy": E, "residual": float(resid)})
+        if resid <= tol and decrease <= tol * max(abs(E), 1e-300):
+            break
+        if resid <= _FLOOR and decrease <= 16 * np.finfo(float).eps * abs(E):  # the round-off floor of r
+            break
+    else:
+        raise SolverError(f"tresca penalty: Newton's method did not converge in {max_iterations} iterations",
+                          iterations=max_iterations)
+    res = friction_residuals(qp, C, c, g, U, Lam, T)
+    return ContactSolution(
+        U=U, Lambda=Lam, pressure=Lam / qp.weights, active=gap < 0, delta=None, iterations=it, residuals=res,
+        method="tresca-penalty", history=history, energy=qp.energy(U),
+        timings={"total": time.perf_counter() - t0}, info={"T": T, "slip": C @ U - c, "bounds": g, "gap": gap})

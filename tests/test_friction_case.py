@@ -1,0 +1,93 @@
+"""Friction in the case file and summary.json (issue 26 item 3): frictionless results unchanged bit for bit,
+bad values refused by name, and the friction entry of a Coulomb run checked against the law and the balance."""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numpy as np
+import pytest
+from test_contact_solve import sphere_dict
+
+from shellcontact import solve
+from shellcontact.case import case_from_dict
+from shellcontact.errors import InputError
+
+
+def panel(**punch) -> dict:
+    d = sphere_dict(n=8)
+    d["punch"][0].update(punch)
+    return d
+
+
+@cache
+def solved(method: str = "dual", **punch):
+    return solve(case_from_dict(panel(**punch)), method=method)
+
+
+@pytest.mark.parametrize("friction", [0.0, {"model": "coulomb", "coefficient": 0.0}])
+def test_zero_friction_is_bit_identical(friction):
+    base = solved()
+    r = solve(case_from_dict(panel(friction=friction)), method="dual")
+    assert np.array_equal(r.solution.U, base.solution.U)
+    assert np.array_equal(r.contact.Lambda, base.contact.Lambda)
+    a, b = r.summary(), base.summary()
+    for key in ("contact", "kkt", "equilibrium", "energy", "stresses"):
+        assert a[key] == b[key], key
+    assert "friction" not in a["contact"][0]
+
+
+@pytest.mark.parametrize("punch, where", [
+    ({"friction": -0.1}, "punch.0.friction"),
+    ({"friction": 11.0}, "punch.0.friction"),
+    ({"friction": "steel"}, "punch.0.friction"),
+    ({"friction": {"model": "tresca"}}, "punch.0.friction.bound"),
+    ({"friction": {"model": "tresca", "bound": -1.0}}, "punch.0.friction.bound"),
+    ({"friction": {"model": "coulomb", "bound": 1.0}}, "punch.0.friction.coefficient"),
+    ({"friction": {"model": "amontons", "coefficient": 0.2}}, "punch.0.friction.model"),
+    ({"slide": [0.0, 0.0, 1e-3]}, "punch.0.slide"),
+    ({"slide": [1e-3, 0.0]}, "punch.0.slide"),
+])
+def test_bad_friction_refused_by_name(punch, where):
+    with pytest.raises(InputError) as e:
+        case_from_dict(panel(**punch))
+    assert str(e.value).startswith(where + ":"), str(e.value)
+
+
+def test_coulomb_summary_entry():
+    """μ = 0.3 and a 1 mm axial slide of the paper's sphere: every touching point slips, so the friction force
+    is μ × the normal force up to the cap's curvature; the shell's balance includes it (without it the balance
+    would miss 84 kN of 285 kN)."""
+    r = solved(friction=0.3, slide=(1e-3, 0.0, 0.0))
+    s = r.summary()
+    c = s["contact"][0]
+    f = c["friction"]
+    assert f["units"] == {"force": "N", "stick_area": "m²", "slip_area": "m²", "max_slip": "m"}
+    assert f["stick_area"] == 0.0 and f["slip_area"] == pytest.approx(c["area"], rel=1e-12)
+    assert 0.95 < f["force"][0] / (0.3 * c["total_normal_force"]) <= 1.0  # measured 0.984
+    assert f["max_slip"] == pytest.approx(1e-3, rel=1.0)  # the slide less the shell's drag: 1.6 mm measured
+    assert f["fixed_point"]["converged"] and f["fixed_point"]["iterations"] <= 30  # measured 7
+    base = solved().summary()["equilibrium"]["relative_residual"]
+    # measured 4.3e-5 with friction, 4.5e-5 without (the interpolation error of the rigid motions)
+    assert s["equilibrium"]["relative_residual"] < 10 * max(base, 1e-5)
+    assert not [w for w in s["warnings"] if w["code"] == "friction_contraction"]
+
+
+def test_large_mu_warns_that_the_fixed_point_does_not_contract():
+    """μ = 5 on the same panel: the fixed point stops contracting (measured q = 0.99, not converged in 50
+    iterations; q = 0.33 at μ = 3): the coded warning says the static Coulomb problem may not be unique."""
+    s = solved(friction=5.0, slide=(1e-3, 0.0, 0.0)).summary()
+    fp = s["contact"][0]["friction"]["fixed_point"]
+    assert not fp["converged"] and fp["contraction"] > 0.9
+    assert "friction_contraction" in [w["code"] for w in s["warnings"]]
+
+
+def test_penalty_and_dual_agree_on_coulomb():
+    """The same Coulomb case by the penalty (regularised friction, its default ε) and by the dual: the friction and
+    normal forces agree to the penalty's O(ε) (measured 4e-6 relative)."""
+    d = solved("dual", friction=0.3, slide=(1e-3, 0.0, 0.0)).summary()["contact"][0]
+    p = solved("penalty", friction=0.3, slide=(1e-3, 0.0, 0.0)).summary()["contact"][0]
+    assert p["friction"]["method"] == "tresca-penalty" and d["friction"]["method"] == "tresca-dual"
+    scale = abs(d["friction"]["force"][0])
+    assert np.allclose(p["friction"]["force"], d["friction"]["force"], rtol=0, atol=4e-5 * scale)
+    assert p["total_normal_force"] == pytest.approx(d["total_normal_force"], rel=4e-5)
