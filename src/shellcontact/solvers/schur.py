@@ -28,7 +28,7 @@ import scipy.linalg as sla
 from ..errors import SolverError
 from ..linalg import Factorization, SchurComplement, factorize
 from ..linalg.sparse import same_entries
-from .kkt import KKTReport, evaluate, length_scale
+from .kkt import TINY, KKTReport, evaluate, length_scale
 from .qp import ContactQP, ContactSolution, check_feasibility
 from .substructure import factorize_contact
 
@@ -274,6 +274,18 @@ class Workspace:
         force control it starts near 0: the punch just touches and the travel is unknown)."""
         return max(self.lscale, float(np.abs(g - self.qp.G).max(initial=0.0)))
 
+    def force_scale(self, g: np.ndarray) -> float:
+        """Λ_ref = length scale / max S_ii over the columns computed so far (``kkt`` module docstring): the
+        force that closes the length scale at the most flexible row; a force below tol·Λ_ref moves no gap
+        by more than tol·length scale. TINY before any column is known (then every Λ is still 0)."""
+        smax = self.max_flexibility()
+        return self.length_scale(g) / smax if smax > 0.0 else TINY
+
+    def max_flexibility(self) -> float:
+        """max S_ii over the columns computed so far (0 before any)."""
+        diag = self.known_diagonal()
+        return float(diag.max()) if diag.size else 0.0
+
     @property
     def n_columns(self) -> int:
         return self._ncol
@@ -429,7 +441,10 @@ class Workspace:
             return Unfinished(self, lam, delta, tol, method, iterations, history, refine, info,
                               spent=time.perf_counter() - self.t0)
         qp = self.qp
+        # a force below tol·Λ_ref (``force_scale``) moves no gap by more than tol × the length scale: below what
+        # the method resolves, it is round-off (±6e-14 N of a zero answer: a shell pushed rigidly by its only punch)
         lam = np.maximum(lam, 0.0)
+        lam[lam <= tol * self.force_scale(self.gap(lam, delta))] = 0.0
         # S from the dense Schur complement differs from the solves' S by ~1e-10 relative: one face
         # refinement on the true gaps even when converged, kept only if it stays converged
         # with extended-precision solves the true gaps are accurate beyond cond(A)·ε: two face
@@ -440,10 +455,11 @@ class Workspace:
         for step in range(refine + 1 + extra):
             if step == 0 and first is not None:
                 U, AU, Ainv_r, absA_absU = first
-                rep = evaluate(qp, U, lam, delta, self.fact, AU=AU, Ainv_r=Ainv_r, absA_absU=absA_absU)
+                rep = evaluate(qp, U, lam, delta, self.fact, AU=AU, Ainv_r=Ainv_r, absA_absU=absA_absU,
+                               max_flexibility=self.max_flexibility())
             else:
                 U = self.solve_equilibrium(lam)
-                rep = evaluate(qp, U, lam, delta, self.fact)
+                rep = evaluate(qp, U, lam, delta, self.fact, max_flexibility=self.max_flexibility())
                 self.n_solves += 1
             if rep.converged(tol):
                 if left == 0 or not np.any(lam > 0) or step == refine + extra:
