@@ -232,8 +232,8 @@ def dual_core(
         # polish: the face KKT system with δ, exactly
         idx = np.flatnonzero(lam > 0)
         if idx.size:
-            x, d, _ = ws.face_solve(idx, -ws.c0[idx], -P)
-            if np.all(x >= 0):
+            x, d, singular = ws.face_solve(idx, -ws.c0[idx], -P)
+            if not singular and np.all(x >= 0):  # a singular face leaves part of δ undetermined: no polish
                 trial = np.zeros(qp.m)
                 trial[idx] = x
                 gtr = ws.gap(trial, d)

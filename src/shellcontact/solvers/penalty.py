@@ -34,7 +34,6 @@ from .kkt import TINY, evaluate, largest_row_norm
 from .qp import ContactQP, ContactSolution, History, check_arguments
 from .schur import Workspace
 
-
 #: a penetration below this multiple of ε_mach times the size of the terms its gap sums is their round-off: the
 #: row touches and carries no force (ω/ε amplifies it: 7 ε_mach gave 5.7e-7 N where a shell pushed rigidly by its
 #: only punch carries none); its force would be ~1e-9 of the rows that carry one, far below the O(ε) error
