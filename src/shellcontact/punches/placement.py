@@ -20,12 +20,15 @@ of the automatic zone, give a larger gap or an explicit zone.
 
 A punch of finite ``extent`` is a body: placement and the first contact use Z only where the body is
 (``Punch.Z_on_body``, +inf elsewhere), and the zone (given or automatic) is cut to the part of it
-opposite the body (``zones.body_zone``), so the body's edges become zone edges and node lines.
+opposite the body (``zones.body_zone``), so the body's edges become zone edges and node lines. A body
+that faces nothing where it is written travels first to where it faces the shell (``_facing_travel``),
+so that where its centre is written along ``direction`` does not change the placement.
 
 Refused (InputError naming the key): a zone outside Ω or empty, a punch that never touches the
 shell moving along ``direction``, a punch whose smallest gap over its zone is not below g, an
 overlap larger than the shell can take (> 0.2·a, or > 10·t: far outside linear shell theory), a
-body whose extent faces no point of the contact surface in the zone, a custom function that
+body whose extent faces no point of the contact surface in the zone (anywhere along its travel, when it
+moves), or meets it side-on, a custom function that
 raises, returns wrong shapes or non-finite values on the shell, and an indentation between 0 and
 ``INDENTATION_DIGITS`` × the gap's round-off (1e-9 m on the paper's panel: the force would be wrong).
 """
