@@ -40,6 +40,10 @@ class MeshSpec:
     phi_lines: tuple[float, ...] = ()  # radians
 
 
+#: node lines closer than this fraction of the mesh's mean interval are one line (``graded_nodes``)
+LINE_MERGE = 1e-4
+
+
 def graded_nodes(
     start: float,
     stop: float,
@@ -58,11 +62,16 @@ def graded_nodes(
     if ratio < 1.0:
         raise InputError("mesh.grading", f"ratio must be >= 1, got {ratio}")
     length = stop - start
-    cuts = []
+    cuts: list[float] = []
+    # one node for lines closer than ``LINE_MERGE`` of an interval (a node line given in the case and found from a
+    # punch; a first-contact line 1e-7 rad off a grading focus made a sliver 1e-5 of its neighbours wide: the
+    # stiffness was not positive definite): the focus or the shell's edge is kept, else the first
+    close = LINE_MERGE * abs(length) / n
     for c in sorted({start, stop, *[c for c in (*focus, *required) if start < c < stop]}):
-        # one node for lines equal up to round-off (a node line given in the case and found from a punch)
-        if not cuts or c - cuts[-1] > 1e-9 * abs(length):
+        if not cuts or c - cuts[-1] > close:
             cuts.append(c)
+        elif c in focus and cuts[-1] not in focus and cuts[-1] != start:
+            cuts[-1] = c
     cuts[-1] = stop
     nodes = [np.array([start])]
     for lo, hi in zip(cuts[:-1], cuts[1:]):

@@ -110,7 +110,8 @@ def solve_active_set(
         lam[idx] = x
         delta = d if k else None
         g = ws.gap(lam, delta)
-        lam_scale = max(float(np.abs(lam).max(initial=0.0)), 1e-300)
+        # against the problem's force scale too: a zero answer's round-off (±6e-14 N) is not its own scale
+        lam_scale = max(float(np.abs(lam).max(initial=0.0)), ws.force_scale(g))
         v_lam = max(0.0, -float(x.min(initial=0.0))) / lam_scale
         v_gap = max(0.0, -float(g[live & ~I].min(initial=0.0))) / ws.length_scale(g)
         I_new = (I & (lam > 0)) | violated(g, I)

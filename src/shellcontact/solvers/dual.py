@@ -232,15 +232,17 @@ def dual_core(
         # polish: the face KKT system with δ, exactly
         idx = np.flatnonzero(lam > 0)
         if idx.size:
-            x, d, _ = ws.face_solve(idx, -ws.c0[idx], -P)
-            if np.all(x >= 0):
+            x, d, singular = ws.face_solve(idx, -ws.c0[idx], -P)
+            if not singular and np.all(x >= 0):  # a singular face leaves part of δ undetermined: no polish
                 trial = np.zeros(qp.m)
                 trial[idx] = x
                 gtr = ws.gap(trial, d)
                 if gtr[ws.live].min(initial=0.0) >= -tol * ws.length_scale(gtr):
                     history.append({"iteration": it0 + total, "outer": outer, "step": "polish", "free": int(idx.size)})
                     return trial, d, total
-        fb = np.linalg.norm(D.T @ lam + P) / max(np.linalg.norm(P), np.linalg.norm(abs(D).T @ lam), 1e-300)
+        # against the problem's force scale too (``kkt``): with P = 0 and Λ = 0 the gross force is round-off
+        fb = np.linalg.norm(D.T @ lam + P) / max(np.linalg.norm(P), np.linalg.norm(abs(D).T @ lam),
+                                                 ws.force_scale(ws.gap(lam, delta)))
         history.append({"iteration": it0 + total, "outer": outer, "force_balance": float(fb)})
         if fb <= tol:
             return lam, delta, total

@@ -8,7 +8,14 @@ Residuals (``kkt_residuals``), with g = G + BU (+ Dδ) and r = AU − F − Bᵀ
 * complementarity   max_i |Λ_i g_i| / W,  W = max(½UᵀAU, |FᵀU|, |Pᵀδ|): the largest work
                     done by one nodal force across its gap, relative to the energy scale
 * duality_gap       |𝓔(U) − q(Λ)| / |𝓔(U)|, q(Λ) = −½(F+BᵀΛ)ᵀA⁻¹(F+BᵀΛ) − ΛᵀG
-* force_balance     ‖DᵀΛ + P‖ / max(‖P‖, ‖|D|ᵀΛ‖)   (force control and floating shells)
+* force_balance     ‖DᵀΛ + P‖ / max(‖P‖, ‖|D|ᵀΛ‖, Λ_ref)   (force control and floating shells)
+
+Λ_ref (``schur.Workspace.force_scale``; here from ``max_flexibility`` = max S_ii) is the problem's own force
+scale: the force that closes the length scale at the most flexible row, length scale / max S_ii. Without it a zero
+answer (a shell pushed rigidly by its only punch: P = 0, Λ = 0) measured its round-off (Λ ≈ 6e-14 N)
+against itself and never converged; a force below tol·Λ_ref changes no gap by more than tol·length scale.
+The floor also bounds the dual feasibility's scale (max(‖Λ‖∞, Λ_ref)), the energy scale of
+complementarity and the duality gap (½ Λ_ref × length scale) and the stationarity's (Λ_ref max_i ‖B_i‖).
 
 The gap is evaluated through the exact identity 𝓔(U) − q(Λ) = Λᵀg + ½ rᵀA⁻¹r − (P + DᵀΛ)ᵀδ,
 which avoids subtracting two nearly equal energies (``dual_value`` computes q directly; the
@@ -57,11 +64,13 @@ def evaluate(
     AU: np.ndarray | None = None,
     Ainv_r: np.ndarray | None = None,
     absA_absU: np.ndarray | None = None,
+    max_flexibility: float = 0.0,
 ) -> KKTReport:
     """All residuals, their scaled forms, the energy and the dual value (see module doc). ``AU`` (= A U),
     ``Ainv_r`` (= A⁻¹r for r = AU − F − BᵀΛ) and ``absA_absU`` (= |A||U|) may be given when computed already,
     for several points at once (``screening.solve_screened_curve``: block products and one block solve for
-    every point of a curve)."""
+    every point of a curve). ``max_flexibility``: the largest S_ii
+    known, for Λ_ref of the module docstring (0: no floor)."""
     if qp.k and delta is None:
         delta = np.zeros(qp.k)
     BtL = qp.B.T @ Lambda
@@ -76,7 +85,10 @@ def evaluate(
     fu = float(qp.F @ U)
     pd = float(qp.P @ delta) if qp.k else 0.0
     energy = 0.5 * uau - fu - pd
-    wscale = max(0.5 * abs(uau), abs(fu), abs(pd), TINY)
+    lscale = length_scale(qp, g)
+    force_floor = lscale / max_flexibility if max_flexibility > 0.0 else TINY
+    wfloor = max(0.5 * force_floor * lscale, TINY)  # the work of Λ_ref across the length scale
+    wscale = max(0.5 * abs(uau), abs(fu), abs(pd), wfloor)
     comp = float(np.max(np.abs(Lambda * g)) / wscale) if g.size else 0.0
     if Ainv_r is None and np.any(r):
         Ainv_r = (factorization if factorization is not None else factorize(qp.A)).solve(r)
@@ -91,21 +103,26 @@ def evaluate(
     if qp.k:
         fb = qp.D.T @ Lambda + qp.P
         gap_value -= float(fb @ delta)
-        res["duality_gap"] = abs(gap_value) / max(abs(energy), TINY)
+        res["duality_gap"] = abs(gap_value) / max(abs(energy), wfloor)
         # gross, not net: the net DᵀΛ of a floating shell's rigid mode without load (P = 0) is round-off
-        fscale = max(np.linalg.norm(qp.P), np.linalg.norm(abs(qp.D).T @ np.abs(Lambda)), TINY)
+        fscale = max(np.linalg.norm(qp.P), np.linalg.norm(abs(qp.D).T @ np.abs(Lambda)), force_floor, TINY)
         res["force_balance"] = float(np.linalg.norm(fb) / fscale)
     else:
-        res["duality_gap"] = abs(gap_value) / max(abs(energy), TINY)
-    lscale = length_scale(qp, g)
-    lam_scale = max(float(np.abs(Lambda).max()) if qp.m else 0.0, TINY)
+        res["duality_gap"] = abs(gap_value) / max(abs(energy), wfloor)
+    lam_scale = max(float(np.abs(Lambda).max()) if qp.m else 0.0, force_floor, TINY)
     scaled = dict(res)
     mag = (qp.abs_A @ np.abs(U) if absA_absU is None else absA_absU) + np.abs(qp.F) + abs(qp.B).T @ np.abs(Lambda)
-    scaled["stationarity"] = float(np.linalg.norm(r) / max(np.linalg.norm(mag), TINY))
+    sfloor = force_floor * largest_row_norm(qp.B) if max_flexibility > 0.0 else TINY
+    scaled["stationarity"] = float(np.linalg.norm(r) / max(np.linalg.norm(mag), sfloor, TINY))
     scaled["penetration"] = pen / lscale
     scaled["dual_feasibility"] = dfeas / lam_scale
     return KKTReport(residuals=res, scaled=scaled, gap=g, energy=energy, dual_value=energy - gap_value,
                      lscale=lscale)
+
+
+def largest_row_norm(B) -> float:
+    """max_i ‖B_i‖: the most one row's unit force exerts on the dofs (Λ_ref times it: the stationarity's floor)."""
+    return float(np.sqrt(np.asarray(B.multiply(B).sum(axis=1)).max(initial=0.0))) if B.shape[0] else 0.0
 
 
 def length_scale(qp: ContactQP, g: np.ndarray) -> float:

@@ -30,9 +30,14 @@ import scipy.sparse as sp
 
 from ..errors import InputError, SolverError
 from ..linalg import Factorization, factorize
-from .kkt import TINY, evaluate
+from .kkt import TINY, evaluate, largest_row_norm
 from .qp import ContactQP, ContactSolution, History, check_arguments
 from .schur import Workspace
+
+#: a penetration below this multiple of ε_mach times the size of the terms its gap sums is their round-off: the
+#: row touches and carries no force (ω/ε amplifies it: 7 ε_mach gave 5.7e-7 N where a shell pushed rigidly by its
+#: only punch carries none); its force would be ~1e-9 of the rows that carry one, far below the O(ε) error
+GAP_ROUNDOFF = 1e3 * np.finfo(float).eps
 
 
 def _check_eps(epsilon: float) -> float:
@@ -102,27 +107,33 @@ def _final(ws: Workspace, eps: float, mu: np.ndarray, delta: np.ndarray | None, 
     for step in range(refine + 1):
         U = ws.solve(qp.F + qp.B.T @ mu)
         g = qp.gap(U, delta)
-        lam = w / eps * np.maximum(-g, 0.0) * ws.live
-        rep = evaluate(qp, U, lam, delta, ws.fact)
+        # |G| + |B||U| + |D||δ|: the size of the terms each gap sums, whose round-off ω/ε turns into a force
+        dd_mag = np.abs(qp.D) @ np.abs(delta) if qp.k else 0.0
+        gap_mag = np.abs(qp.G) + abs(qp.B) @ np.abs(U) + dd_mag
+        pen = np.maximum(-g, 0.0) * ws.live
+        pen[pen <= GAP_ROUNDOFF * gap_mag] = 0.0  # touching, not penetrating
+        lam = w / eps * pen
+        rep = evaluate(qp, U, lam, delta, ws.fact, max_flexibility=ws.max_flexibility())
         ws.n_solves += 1
         pstat = rep.residuals["stationarity"]
         if qp.k:
             pstat = max(pstat, rep.residuals["force_balance"])
         # normwise backward error of the penalised equation AU − F − Bᵀ(ω/ε)[g]₋ = 0
-        dd_mag = np.abs(qp.D) @ np.abs(delta) if qp.k else 0.0
-        pen_mag = w / eps * (lam > 0) * (np.abs(qp.G) + abs(qp.B) @ np.abs(U) + dd_mag)
+        pen_mag = w / eps * (lam > 0) * gap_mag
         mag = qp.abs_A @ np.abs(U) + np.abs(qp.F) + abs(qp.B).T @ (lam + pen_mag)
-        berr = float(np.linalg.norm(qp.A @ U - qp.F - qp.B.T @ lam) / max(np.linalg.norm(mag), TINY))
+        # floored like ``_newton``'s stationarity: a zero answer's residual is round-off, not its own scale
+        floor = ws.force_scale(g) * largest_row_norm(qp.B)
+        berr = float(np.linalg.norm(qp.A @ U - qp.F - qp.B.T @ lam) / max(np.linalg.norm(mag), floor, TINY))
         if qp.k:
             fb = np.linalg.norm(qp.D.T @ lam + qp.P)
             berr = max(berr, float(fb / max(np.linalg.norm(np.abs(qp.D).T @ (lam + pen_mag)) + np.linalg.norm(qp.P),
-                                               TINY)))
+                                               ws.force_scale(g), TINY)))
         if best is None or berr < best[6]:
             best = (U, lam, rep, pstat, mu, delta, berr)
         if berr <= tol or step == refine:
             break
         # Newton step of the penalised problem based at the true gap: g(μ') = g + S(μ' − μ)
-        I = ws.live & (g < 0)
+        I = pen > 0
         if qp.k:
             I = ws.first_contact(I, g)
         idx = np.flatnonzero(I)
@@ -153,12 +164,16 @@ def _newton(ws: Workspace, eps: float, mu: np.ndarray, delta: np.ndarray | None,
         return Smu, g, lam, J
 
     Smu, g, lam, J = parts(mu, delta)
+    b_row = largest_row_norm(qp.B)  # Λ_ref b_row: the floor of the stationarity's scale (below)
     prev_I = None
     full_step = False
     for it in range(1, max_iterations + 1):
-        rhs_norm = float(np.linalg.norm(qp.F + qp.B.T @ lam))
+        # scales floored by the problem's force scale Λ_ref (``kkt``): a zero answer's forces are round-off
+        # (a shell pushed rigidly by its only punch: 2e-9 N of gap round-off times ω/ε), not its own scale
+        lam_ref = ws.force_scale(g)
+        rhs_norm = max(float(np.linalg.norm(qp.F + qp.B.T @ lam)), lam_ref * b_row)
         stat = float(np.linalg.norm(qp.B.T @ (mu - lam)) / max(rhs_norm, TINY))
-        fscale = max(np.linalg.norm(P), np.linalg.norm(abs(D).T @ lam), TINY) if k else TINY
+        fscale = max(np.linalg.norm(P), np.linalg.norm(abs(D).T @ lam), lam_ref, TINY) if k else TINY
         fb = float(np.linalg.norm(D.T @ lam + P) / fscale) if k else 0.0
         I = live & (g < 0)
         if k:

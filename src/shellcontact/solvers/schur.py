@@ -23,12 +23,12 @@ from dataclasses import dataclass, field
 from typing import cast
 
 import numpy as np
-import scipy.linalg as sla
 
 from ..errors import SolverError
 from ..linalg import Factorization, SchurComplement, factorize
 from ..linalg.sparse import same_entries
-from .kkt import KKTReport, evaluate, length_scale
+from .face import solve_face
+from .kkt import TINY, KKTReport, evaluate, length_scale
 from .qp import ContactQP, ContactSolution, check_feasibility
 from .substructure import factorize_contact
 
@@ -102,6 +102,7 @@ class Workspace:
         self.t0 = time.perf_counter()
         self.timings = {"feasibility": 0.0, "factorization": 0.0, "schur": 0.0, "solve": 0.0, "dense": 0.0}
         self.n_solves = 0
+        self.dependent_faces = 0  # face solves that dropped dependent rows or columns of D (``face``)
         t = time.perf_counter()
         self.live = check_feasibility(qp)
         self.timings["feasibility"] = time.perf_counter() - t
@@ -274,6 +275,18 @@ class Workspace:
         force control it starts near 0: the punch just touches and the travel is unknown)."""
         return max(self.lscale, float(np.abs(g - self.qp.G).max(initial=0.0)))
 
+    def force_scale(self, g: np.ndarray) -> float:
+        """Λ_ref = length scale / max S_ii over the columns computed so far (``kkt`` module docstring): the
+        force that closes the length scale at the most flexible row; a force below tol·Λ_ref moves no gap
+        by more than tol·length scale. TINY before any column is known (then every Λ is still 0)."""
+        smax = self.max_flexibility()
+        return self.length_scale(g) / smax if smax > 0.0 else TINY
+
+    def max_flexibility(self) -> float:
+        """max S_ii over the columns computed so far (0 before any)."""
+        diag = self.known_diagonal()
+        return float(diag.max()) if diag.size else 0.0
+
     @property
     def n_columns(self) -> int:
         return self._ncol
@@ -295,49 +308,22 @@ class Workspace:
         use_D: bool = True,
     ) -> tuple[np.ndarray, np.ndarray | None, bool]:
         """Solve (S_II + diag(shift)) x + D_I δ = rhs, D_Iᵀ x = rhs2 (the last only under force
-        control). Cholesky of the dense block; least squares if it is singular (dependent rows).
-        Returns x, δ, and whether the block was singular."""
+        control) by Cholesky of the dense block (``face.solve_face``): rows of the face that depend on the
+        others, and columns of D the face does not determine, are found by a rank check on the pivots and
+        dropped (x = 0 there, δ = 0 along them). Returns x, δ, and whether the face was singular (also counted
+        in ``dependent_faces``, which the solution's info reports)."""
         qp = self.qp
         if H is None:
             H = self.block(idx)
             if shift is not None:
                 H[np.diag_indices_from(H)] += shift
         t = time.perf_counter()
-        singular = False
-        try:
-            if idx.size == 0:
-                raise np.linalg.LinAlgError
-            cf = sla.cho_factor(H, lower=True, check_finite=False)
-            d = np.diag(cf[0])
-            if d.min() <= 1e-7 * d.max():
-                raise np.linalg.LinAlgError
-        except (np.linalg.LinAlgError, sla.LinAlgError):
-            cf = None
-            singular = idx.size > 0
-        if qp.k == 0 or not use_D:
-            if cf is not None:
-                x = sla.cho_solve(cf, rhs, check_finite=False)
-            else:
-                x = sla.lstsq(H, rhs, check_finite=False)[0] if idx.size else np.zeros(0)
-            self.timings["dense"] += time.perf_counter() - t
-            return x, None, singular
-        DI = qp.D[idx]
-        if cf is not None:
-            X = sla.cho_solve(cf, np.column_stack([rhs, DI]), check_finite=False)
-            Sd = DI.T @ X[:, 1:]
-            try:
-                delta = np.linalg.solve(Sd, DI.T @ X[:, 0] - rhs2)
-            except np.linalg.LinAlgError:
-                delta = np.linalg.lstsq(Sd, DI.T @ X[:, 0] - rhs2, rcond=None)[0]
-                singular = True
-            x = X[:, 0] - X[:, 1:] @ delta
-        else:
-            k = qp.k
-            K = np.block([[H, DI], [DI.T, np.zeros((k, k))]])
-            sol = sla.lstsq(K, np.concatenate([rhs, rhs2]), check_finite=False)[0]
-            x, delta = sol[: idx.size], sol[idx.size :]
+        with_D = qp.k > 0 and use_D
+        sol = solve_face(H, np.asarray(rhs, float), qp.D[idx] if with_D else None, rhs2 if with_D else None)
         self.timings["dense"] += time.perf_counter() - t
-        return x, delta, singular
+        if sol.singular:
+            self.dependent_faces += 1
+        return sol.x, sol.delta, sol.singular
 
     def first_contact(self, mask: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Force control: add to ``mask`` the first vertex each loaded punch would touch if it
@@ -391,7 +377,7 @@ class Workspace:
         tim["total"] = time.perf_counter() - self.t0
         tim["n_solves"] = float(self.n_solves)
         tim["schur_columns"] = float(self._ncol)
-        inf = {"gap": rep.gap, "scaled_residuals": rep.scaled}
+        inf = {"gap": rep.gap, "scaled_residuals": rep.scaled, "dependent_faces": self.dependent_faces}
         inf.update(info or {})
         return ContactSolution(
             U=U,
@@ -429,7 +415,10 @@ class Workspace:
             return Unfinished(self, lam, delta, tol, method, iterations, history, refine, info,
                               spent=time.perf_counter() - self.t0)
         qp = self.qp
+        # a force below tol·Λ_ref (``force_scale``) moves no gap by more than tol × the length scale: below what
+        # the method resolves, it is round-off (±6e-14 N of a zero answer: a shell pushed rigidly by its only punch)
         lam = np.maximum(lam, 0.0)
+        lam[lam <= tol * self.force_scale(self.gap(lam, delta))] = 0.0
         # S from the dense Schur complement differs from the solves' S by ~1e-10 relative: one face
         # refinement on the true gaps even when converged, kept only if it stays converged
         # with extended-precision solves the true gaps are accurate beyond cond(A)·ε: two face
@@ -440,10 +429,11 @@ class Workspace:
         for step in range(refine + 1 + extra):
             if step == 0 and first is not None:
                 U, AU, Ainv_r, absA_absU = first
-                rep = evaluate(qp, U, lam, delta, self.fact, AU=AU, Ainv_r=Ainv_r, absA_absU=absA_absU)
+                rep = evaluate(qp, U, lam, delta, self.fact, AU=AU, Ainv_r=Ainv_r, absA_absU=absA_absU,
+                               max_flexibility=self.max_flexibility())
             else:
                 U = self.solve_equilibrium(lam)
-                rep = evaluate(qp, U, lam, delta, self.fact)
+                rep = evaluate(qp, U, lam, delta, self.fact, max_flexibility=self.max_flexibility())
                 self.n_solves += 1
             if rep.converged(tol):
                 if left == 0 or not np.any(lam > 0) or step == refine + extra:
