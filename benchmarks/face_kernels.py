@@ -4,6 +4,7 @@ solves (solvers/face_update.py) and the whole Schur complement (linalg/bordered.
     python benchmarks/face_kernels.py kernels             # dense kernels at m = 7 749 border rows, |I| = 5 193
     python benchmarks/face_kernels.py solve 2 old both    # the demo's contact solve alone at mesh.refine = 2
     python benchmarks/face_kernels.py force 2 active-set  # the demo's force, iterations, CPU s (one solve)
+    python benchmarks/face_kernels.py border 2 1000 2000  # the bordered factorisation's CPU s against its rows
 
 ``kernels``: random SPD matrices of the sizes of the demo at 1.12M dofs (the border of 7 749 predicted rows, a
 face of 5 193 active rows): T's Cholesky, 1 000 unit columns of T⁻¹ (×6 for the ~6 000 columns read), LAPACK
@@ -92,11 +93,28 @@ def force(refine: int, method: str) -> None:
           f"{cs.iterations} iterations, {int(res.contact.active.sum())} active, {t:.1f} CPU s")
 
 
+def border(refine: int, counts: list[int]) -> None:
+    """CPU seconds of ``substructure.factorize_contact`` bordered by the deepest k rows of the overlap G."""
+    from shellcontact.analysis import discretize
+    from shellcontact.case import load_case
+    from shellcontact.solvers.substructure import factorize_contact
+
+    qp = discretize(load_case(CASE, [f"mesh.refine={refine}"])).qp()
+    order = np.argsort(qp.G, kind="stable")
+    for k in counts:
+        rows = np.sort(order[:k])
+        t, fac = _cpu(factorize_contact, qp.A, qp.B[rows], min_unknowns=0, flexibility=qp.flexibility[rows])
+        print(f"border of {k} rows: {t:.2f} CPU s (Schur complement: {fac.schur is not None})", flush=True)
+        del fac
+
+
 if __name__ == "__main__":
     what, *rest = sys.argv[1:] or ["kernels"]
     if what == "kernels":
         kernels()
     elif what == "solve":
         solve(int(rest[0]), rest[1:] or ["old", "both"])
+    elif what == "border":
+        border(int(rest[0]), [int(k) for k in rest[1:]])
     else:
         force(int(rest[0]), rest[1] if len(rest) > 1 else "active-set")
