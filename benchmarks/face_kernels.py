@@ -1,17 +1,15 @@
-"""Issue 23 item 2(b): what the active set's dense work costs at the 1.12M-dof sizes, and what the bordered face
-solves (solvers/face_update.py) and the whole Schur complement (linalg/bordered.py) change (CPU seconds).
+"""Issue 23 item 2(b): what the active set's dense work and the bordered factorisation cost at the 1.12M-dof sizes
+(CPU seconds; benchmarks/RESULTS.md, "Issue 23, item 2(b)").
 
     python benchmarks/face_kernels.py kernels             # dense kernels at m = 7 749 border rows, |I| = 5 193
-    python benchmarks/face_kernels.py solve 2 old both    # the demo's contact solve alone at mesh.refine = 2
     python benchmarks/face_kernels.py force 2 active-set  # the demo's force, iterations, CPU s (one solve)
     python benchmarks/face_kernels.py border 2 1000 2000  # the bordered factorisation's CPU s against its rows
 
 ``kernels``: random SPD matrices of the sizes of the demo at 1.12M dofs (the border of 7 749 predicted rows, a
 face of 5 193 active rows): T's Cholesky, 1 000 unit columns of T⁻¹ (×6 for the ~6 000 columns read), LAPACK
 potri (the whole inverse), a face's Cholesky, and a bordered face solve with 100 rows moved.
-``solve R VARIANT…``: the default cold path's factorisation (fresh per variant) and contact solve, variants
-old (neither mechanism), inverse (whole S only), face (bordered faces only), both. Run with one thread
-(OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1) on a quiet machine for comparable CPU seconds.
+``border R K…``: the bordered factorisation of the demo at ``mesh.refine = R`` by the deepest K rows of its overlap.
+Run with one thread (OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1) on a quiet machine for comparable CPU seconds.
 """
 
 from __future__ import annotations
@@ -63,26 +61,6 @@ def kernels(m: int = 7749, n: int = 5193, q: int = 100) -> None:
     print(f"bordered face solve, {q} rows moved: {t1:.2f} s (their triangular solves) + {t2:.2f} s")
 
 
-def solve(refine: int, variants: list[str]) -> None:
-    from shellcontact.analysis import discretize
-    from shellcontact.case import load_case
-    from shellcontact.linalg import bordered
-    from shellcontact.solvers.active_set import solve_active_set
-    from shellcontact.solvers.screening import factorize_screened, solve_screened
-
-    d = discretize(load_case(CASE, [f"mesh.refine={refine}"]))
-    qp = d.qp()
-    share = bordered.INVERT_SHARE
-    for variant in variants:
-        update, bordered.INVERT_SHARE = {"old": (False, 10**9), "inverse": (False, share),
-                                         "face": (True, 10**9), "both": (True, share)}[variant]
-        fac, screen = factorize_screened(qp, d.operator.punch)
-        t, sol = _cpu(solve_screened, qp, screen, solve_active_set, fac, update_face=update)
-        print(f"{variant}: {sol.iterations} iterations, {sol.timings['schur_columns']:.0f} columns of S, face solves "
-              f"{sol.info.get('faces')}, contact solve {t:.2f} CPU s, sum of multipliers {sol.Lambda.sum():.15g} N",
-              flush=True)
-
-
 def force(refine: int, method: str) -> None:
     from shellcontact.analysis import solve as solve_case
     from shellcontact.case import load_case
@@ -112,8 +90,6 @@ if __name__ == "__main__":
     what, *rest = sys.argv[1:] or ["kernels"]
     if what == "kernels":
         kernels()
-    elif what == "solve":
-        solve(int(rest[0]), rest[1:] or ["old", "both"])
     elif what == "border":
         border(int(rest[0]), [int(k) for k in rest[1:]])
     else:

@@ -218,30 +218,3 @@ def test_a_coarser_level_picks_the_border_when_the_overlap_rule_would_border_too
     assert f_warm == pytest.approx(f_cold, rel=1e-8)
     forced_off = shellcontact.solve(load_case(path, [*sets, "solver.nested=false"]))
     assert "nested_iterations" not in forced_off.info
-
-
-@pytest.mark.skipif(not HAS_PARDISO, reason="the Schur complement needs PARDISO")
-@pytest.mark.parametrize("cached", [True, False])
-def test_the_whole_schur_complement_equals_its_columns(cached: bool, monkeypatch) -> None:
-    """Asking for a few columns solves for them; asking for half of the rows (over a third) forms the whole S in
-    the factor's place (potri): its columns equal numpy's B A⁻¹ Bᵀ (measured 5e-13 of the largest entry; bound 1e-8 as
-    test_schur_columns_equal_dense) and the columns solved before, S is exactly symmetric, T's factor is gone.
-    ``cached`` False: rows beyond CACHED_ROWS (no column cache before the inverse)."""
-    from shellcontact.linalg import bordered
-
-    if not cached:
-        monkeypatch.setattr(bordered, "CACHED_ROWS", 0)
-    qp = CASES["plate-zone"]()
-    fac = factorize_contact(qp.A, qp.B, min_unknowns=0)
-    sch = fac.schur
-    S = _dense_S(qp)
-    few = np.arange(0, qp.m, 16)[:5]
-    first = sch.columns(few)
-    assert sch.chol is not None and not sch._cache.get("whole")
-    rest = np.arange(qp.m // 2)
-    got = sch.columns(rest)
-    assert sch.chol is None and sch._cache["whole"]
-    assert np.max(np.abs(got - S[:, rest])) <= 1e-8 * np.max(np.abs(S))
-    assert np.max(np.abs(sch.columns(few) - first)) <= 1e-8 * np.max(np.abs(S))
-    whole = sch.columns(np.arange(qp.m))
-    assert np.array_equal(whole, whole.T)

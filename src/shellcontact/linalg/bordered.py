@@ -34,9 +34,6 @@ from .sparse import same_entries
 
 #: most rows for which ``SchurComplement`` keeps the columns of S it solved for (m² doubles: 128 MB at 4000)
 CACHED_ROWS = 4000
-#: the whole S is formed (``SchurComplement._invert``, ⅔m³ flops) once the columns asked for reach 1/INVERT_SHARE
-#: of the m rows (2m² flops each): the break-even of the flop counts
-INVERT_SHARE = 3
 
 
 @dataclass
@@ -84,31 +81,18 @@ class SchurComplement(SchurRows):
 
     #: S's columns solved for so far ("S", m × m, allocated on first use) and which they are ("known"): every
     #: QP on these rows reads them (the points of a curve, ``curves.solve_family``, each need the same
-    #: columns); a shallow copy (``batched.SharedFactorization``) shares them. "solved" counts the columns
-    #: solved for one by one; once the whole S pays (``INVERT_SHARE``), "S" holds all of it in the place of T's
-    #: factor ("whole": ``_invert``; ``chol`` is then None)
+    #: columns); a shallow copy (``batched.SharedFactorization``) shares them
     _cache: dict = field(default_factory=dict, init=False, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
     def columns(self, cols: np.ndarray) -> np.ndarray:
-        """S[:, cols] = T⁻¹[:, cols] − ρ⁻¹ I[:, cols]  (m × len(cols)), each column solved for once; the whole
-        S at once (in T's factor's place) when the columns asked for reach ``INVERT_SHARE`` of m."""
+        """S[:, cols] = T⁻¹[:, cols] − ρ⁻¹ I[:, cols]  (m × len(cols)), each column solved for once."""
         cols = np.asarray(cols, dtype=np.int64)
+        if self.m > CACHED_ROWS:
+            return self._solve_columns(cols)
         with self._lock:
-            cache = self._cache
-            if not cache.get("whole"):
-                known = cache.get("known")
-                asked = int(np.unique(cols if known is None else cols[~known[cols]]).size)
-                if INVERT_SHARE * (cache.get("solved", 0) + asked) >= self.m:
-                    self._invert()
-                else:
-                    cache["solved"] = cache.get("solved", 0) + asked
-            if cache.get("whole"):
-                return cache["S"][:, cols]
-            if self.m > CACHED_ROWS:
-                return self._solve_columns(cols)
-            if "S" not in cache:
-                cache.update(S=np.empty((self.m, self.m)), known=np.zeros(self.m, dtype=bool))
+            if not self._cache:
+                self._cache.update(S=np.empty((self.m, self.m)), known=np.zeros(self.m, dtype=bool))
             S, known = self._cache["S"], self._cache["known"]
             new = np.unique(cols[~known[cols]])
             if new.size:
@@ -122,28 +106,6 @@ class SchurComplement(SchurRows):
         X = sla.cho_solve(self.chol, E, check_finite=False)
         X[cols, np.arange(cols.size)] -= 1.0 / self.rho
         return X
-
-    def _invert(self) -> None:
-        """The whole S = T⁻¹ − ρ⁻¹I in the place of T's Cholesky factor (LAPACK potri: ⅔m³ flops, where the
-        columns one by one cost 2m² each), made exactly symmetric; ``chol`` becomes None."""
-        c, lower = self.chol
-        self._cache.pop("S", None)  # the columns solved so far are in the inverse too
-        self._cache.pop("known", None)
-        inv, info = sla.lapack.dpotri(c, lower=int(lower), overwrite_c=1)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"potri failed (info {info})")
-        m, step = self.m, 512
-        for j0 in range(0, m, step):  # mirror the computed triangle, block by block (no m × m temporaries)
-            j1 = min(m, j0 + step)
-            d = inv[j0:j1, j0:j1]
-            d[...] = np.tril(d) + np.tril(d, -1).T if lower else np.triu(d) + np.triu(d, 1).T
-            if lower:
-                inv[j0:j1, j1:] = inv[j1:, j0:j1].T
-            else:
-                inv[j1:, j0:j1] = inv[j0:j1, j1:].T
-        inv[np.diag_indices(m)] -= 1.0 / self.rho
-        self.chol = None
-        self._cache.update(S=inv, whole=True)
 
 
 def border_weight(Bs: sp.csr_matrix, flexibility: float | None = None) -> float:

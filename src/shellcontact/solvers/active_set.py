@@ -40,7 +40,6 @@ import numpy as np
 from ..errors import SolverError
 from ..linalg import Factorization
 from .dual import dual_core
-from .face_update import UpdatedFace
 from .qp import ContactQP, ContactSolution, History, as_mask, check_arguments, check_growth
 from .schur import Unfinished, Workspace, deepest_violations, default_growth
 
@@ -64,7 +63,6 @@ def solve_active_set(
     extended: bool = False,
     finish: bool = True,
     patience: int = PATIENCE,
-    update_face: bool = True,
 ) -> ContactSolution | Unfinished:
     """PDAS with cycle-detection fallback (module docstring). ``max_iterations`` bounds PDAS
     iterations plus fallback iterations; ``patience``: iterations without progress before the fallback
@@ -78,9 +76,7 @@ def solve_active_set(
     iterations (measured on the paper panel at 211k unknowns: 155 instead of 341 columns, 43 instead
     of 12 iterations, contact solve 6.1-6.7 s instead of 7.2-8.4 s with max_add=8; raise
     ``max_iterations`` accordingly). ``extended``: the final solves with mixed-precision
-    refinement (``schur.Workspace``). ``update_face``: the face solves through ``face_update.UpdatedFace`` (the
-    factor of an earlier face bordered by the rows that joined and left) instead of a new Cholesky factor each
-    iteration (only without force control). ``finish`` False: the converged multipliers before their final check
+    refinement (``schur.Workspace``). ``finish`` False: the converged multipliers before their final check
     (``schur.Unfinished``), for a caller that makes the checks of several points together."""
     check_arguments(tol, max_iterations)
     ws = Workspace(qp, factorization, extended=extended, finish=finish)
@@ -107,15 +103,10 @@ def solve_active_set(
     best_wrong, best_it = qp.m + 1, 0
     lam = np.zeros(qp.m)
     delta = np.zeros(k) if k else None
-    face = UpdatedFace(ws) if k == 0 and update_face else None  # force control: the bordered face_solve
     for it in range(1, max_iterations + 1):
         idx = np.flatnonzero(I)
         lam = np.zeros(qp.m)
-        if face is not None:
-            x, singular = face.solve(idx, -ws.c0[idx])
-            d = None
-        else:
-            x, d, singular = ws.face_solve(idx, -ws.c0[idx], rhs2)
+        x, d, singular = ws.face_solve(idx, -ws.c0[idx], rhs2)
         lam[idx] = x
         delta = d if k else None
         g = ws.gap(lam, delta)
@@ -133,8 +124,7 @@ def solve_active_set(
             "singular": singular, "schur_columns": ws.n_columns,
         })
         if v_lam <= tol and v_gap <= tol:
-            return ws.finish_exact(lam, delta, tol, "active-set", it, history,
-                                   info={"fallback": None, "faces": None if face is None else dict(face.counts)})
+            return ws.finish_exact(lam, delta, tol, "active-set", it, history, info={"fallback": None})
         key = np.packbits(I).tobytes()
         seen.add(key)
         if wrong < PROGRESS * best_wrong:
@@ -147,8 +137,7 @@ def solve_active_set(
             history[-1]["cycle" if cycle else "stalled"] = True
             lam_f, delta_f, its = dual_core(ws, np.maximum(lam, 0.0), tol, max_iterations - it, history, it0=it)
             return ws.finish_exact(lam_f, delta_f, tol, "active-set", it + its, history,
-                                   info={"fallback": "dual-mprgp", "fallback_iterations": its,
-                                         "faces": None if face is None else dict(face.counts)})
+                                   info={"fallback": "dual-mprgp", "fallback_iterations": its})
         I = I_new
     recent = history[-5:]
     growing = all(h["added"] > 0 and h["removed"] == 0 for h in recent)

@@ -252,12 +252,6 @@ class Workspace:
         self.ensure(idx)
         return self._store[np.ix_(idx, self._pos[idx])]
 
-    def cross(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """S[rows][:, cols] (gathered directly)."""
-        cols = np.asarray(cols, dtype=np.int64)
-        self.ensure(cols)
-        return self._store[np.ix_(np.asarray(rows, dtype=np.int64), self._pos[cols])]
-
     def Sx(self, x: np.ndarray) -> np.ndarray:
         supp = np.flatnonzero(x)
         if supp.size == 0:
