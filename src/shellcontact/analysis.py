@@ -389,7 +389,7 @@ class Result:
                 out["rigid_motion"] = self.info["rigid_motion"]
         out["warnings"] = [record(w) for w in self.warnings()]  # {"code", "message"} (validity.py)
         out["backend"] = self.info.get("backend")
-        if (parallel := parallel_summary()) is not None:  # MUMPS over MPI: ranks, peak memory of each
+        if out["backend"] == "mumps" and (parallel := parallel_summary()) is not None:  # ranks, peak memory of each
             out["parallel"] = parallel
         out["timings"] = dict(self.timings)
         out["unit_system"] = self.case.units

@@ -59,6 +59,13 @@ def _count(value: int) -> int:
     return value if value >= 0 else -value * 1_000_000
 
 
+def _checked_upper(As: sp.csr_matrix) -> sp.csr_matrix:
+    U = upper(As)
+    if np.any(np.diff(U.indptr) == 0):
+        raise SolverError("matrix has an empty row: singular")
+    return U
+
+
 class Mumps(Factorization):
     """MUMPS on the upper triangle of the equilibrated matrix, all ranks of MPI's world taking part."""
 
@@ -69,7 +76,7 @@ class Mumps(Factorization):
         from . import mpi
 
         self._instance = mpi.HostInstance(dict(_SETTINGS))
-        self._set_matrix(upper(As))
+        self._set_matrix(_checked_upper(As))
         self._run(4)  # analysis and factorisation
 
     def _set_matrix(self, U: sp.csr_matrix) -> None:
@@ -88,6 +95,9 @@ class Mumps(Factorization):
     def _run(self, job: int) -> None:
         if self._instance.job(job) < 0:
             raise SolverError(f"mumps JOB {job}: {self._instance.mumps.error()}")
+        negative = int(self._instance.mumps.s.infog[11])
+        if job != 3 and negative:  # SYM = 1 factorises L D Lᵀ without pivoting: INFOG(12) counts D's negative pivots
+            raise SolverError(f"mumps: {negative} negative pivot(s) (INFOG(12)): not positive definite")
 
     def _solve_factors(self, b: np.ndarray) -> np.ndarray:
         x = np.array(b, dtype=np.float64, order="F", copy=True)  # MUMPS overwrites the right-hand sides
@@ -112,7 +122,7 @@ class Mumps(Factorization):
         return x
 
     def _refactor(self, As: sp.csr_matrix) -> None:
-        U = upper(As)
+        U = _checked_upper(As)
         indptr, indices = self._pattern
         if np.array_equal(U.indptr, indptr) and np.array_equal(U.indices, indices):
             self._a[:] = U.tocoo().data
