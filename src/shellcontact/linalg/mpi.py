@@ -23,8 +23,8 @@ from typing import Any
 
 from .mumps_c import Instance
 
-#: environment variables by which the common launchers (Open MPI, MPICH/Hydra, Slurm's PMI) give the size
-_SIZE_VARIABLES = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS")
+#: environment variables by which the common launchers give the size (Open MPI, MPICH/Hydra, a Slurm step)
+_SIZE_VARIABLES = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_STEP_NUM_TASKS")
 _TAG = 2727
 #: how long a waiting rank sleeps between looks for a command: Open MPI's blocking receive spins a core,
 #: which on a machine with as many ranks as cores would take one from rank 0's serial work
