@@ -54,6 +54,12 @@ def mpi_started() -> bool:
     return mod is not None and bool(mod.Is_initialized())
 
 
+def _finalized() -> bool:
+    """Whether MPI has been finalised (at interpreter exit: a factorisation freed after it ends with it)."""
+    mod = sys.modules.get("mpi4py.MPI")
+    return mod is not None and bool(mod.Is_finalized())
+
+
 def ranks() -> int:
     return comm().Get_size()
 
@@ -92,9 +98,9 @@ class HostInstance:
         return code
 
     def free(self) -> None:
-        """JOB = −2 on every rank; nothing once the serving ranks were released (the instance ends with
-        MPI)."""
-        if self.mumps.alive and not _released:
+        """JOB = −2 on every rank; nothing once the serving ranks were released or MPI finalised (the
+        instance ends with MPI)."""
+        if self.mumps.alive and not _released and not _finalized():
             self._tell(("free", self.id))
             self.mumps.free()
 
