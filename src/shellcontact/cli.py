@@ -532,9 +532,11 @@ def _install_handlers() -> dict[int, object]:
 def main(argv: list[str] | None = None) -> int:
     """The command line; under ``mpiexec -n N`` rank 0 runs it and the other ranks serve its MUMPS calls
     (``linalg.mpi``: exit status 0 on them, rank 0's status is the run's)."""
-    from .linalg.mpi import launched_ranks, run_on_host
+    from .launcher import launched_ranks
 
     if launched_ranks() > 1:
+        from .linalg.mpi import run_on_host
+
         status = run_on_host(lambda: _main(argv))
         return EXIT_OK if status is None else status
     return _main(argv)

@@ -14,31 +14,19 @@ never initialises MPI.
 
 from __future__ import annotations
 
-import os
 import resource
 import sys
 import time
 from collections.abc import Callable
 from typing import Any
 
+from ..launcher import launched_ranks
 from .mumps_c import Instance
 
-#: environment variables by which the common launchers give the size (Open MPI, MPICH/Hydra, a Slurm step)
-_SIZE_VARIABLES = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_STEP_NUM_TASKS")
 _TAG = 2727
 #: how long a waiting rank sleeps between looks for a command: Open MPI's blocking receive spins a core,
 #: which on a machine with as many ranks as cores would take one from rank 0's serial work
 _POLL_SECONDS = 0.0005
-
-
-def launched_ranks() -> int:
-    """The number of processes mpiexec (or srun) started, from the environment (1 without a launcher);
-    does not initialise MPI."""
-    for name in _SIZE_VARIABLES:
-        value = os.environ.get(name, "")
-        if value.isdigit():
-            return int(value)
-    return 1
 
 
 def comm():
