@@ -8,13 +8,27 @@ export OPENBLAS_NUM_THREADS ?= 1
 export MKL_NUM_THREADS ?= 1
 export OMP_NUM_THREADS ?= 1
 
-.PHONY: demo test test-serial check-fresh fuzz lint bench clean
+.PHONY: demo test test-serial check-fresh fuzz lint bench clean mpi-packages
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	if $(HAVE_MPI); then $(BIN)/python -m pip install --quiet -e ".[mpi]"; \
+	  else echo "no mpiexec or libdmumps here: the mumps backend and its MPI tests are left out (make mpi-packages)"; fi
 	touch $(STAMP)
+
+# MPI and the parallel MUMPS (the mumps backend): Debian packages, installed by `make mpi-packages` (as root,
+# or with sudo) and by .ci/run; then `make` adds mpi4py (the extra shellcontact[mpi])
+MPI_PACKAGES = openmpi-bin libopenmpi-dev libmumps-dev libopenblas0-serial
+HAVE_MPI = command -v mpiexec >/dev/null 2>&1 && /sbin/ldconfig -p | grep -q libdmumps
+
+mpi-packages:
+	@if $(HAVE_MPI); then echo "MPI and MUMPS are installed"; \
+	elif ! command -v apt-get >/dev/null 2>&1; then echo "no apt-get: install an MPI and MUMPS by hand" >&2; exit 1; \
+	else sudo=""; [ "$$(id -u)" = 0 ] || sudo="sudo -n"; \
+	  $$sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$sudo apt-get install -y -qq $(MPI_PACKAGES) \
+	  && rm -f $(STAMP); fi
 
 demo: $(STAMP)
 	$(BIN)/shellcontact demo -o demo-out --force

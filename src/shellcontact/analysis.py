@@ -35,6 +35,8 @@ from .floating import Floating
 from .floating import analyse as analyse_floating
 from .friction_case import attach_friction, has_friction, solve_friction
 from .linalg import BACKENDS, Factorization, factorize
+from .linalg.mpi import parallel_summary
+from .linalg.mumps import configure as configure_mumps
 from .loads import load_vector
 from .mesh import ShellMesh, build_mesh
 from .options import SolverOptions
@@ -391,6 +393,8 @@ class Result:
                 out["rigid_motion"] = self.info["rigid_motion"]
         out["warnings"] = [record(w) for w in self.warnings()]  # {"code", "message"} (validity.py)
         out["backend"] = self.info.get("backend")
+        if out["backend"] == "mumps" and (parallel := parallel_summary()) is not None:  # ranks, peak memory of each
+            out["parallel"] = parallel
         out["timings"] = dict(self.timings)
         out["unit_system"] = self.case.units
         out["units"] = summary_units(out, self.case.units)
@@ -544,6 +548,7 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
     """``solve`` from the discretisation ``d`` of ``case`` on: factorisation (by ``factorizer``), the linear
     or contact solve, post-processing."""
     factorizer = factorizer or Factorizer()
+    configure_mumps(out_of_core=opts.out_of_core)
     space, A, F, red, op = d.space, d.A, d.F, d.reduction, d.operator
     info: dict[str, Any] = {"unknowns": int(d.Ar.shape[0])}
     if op is None:

@@ -165,6 +165,10 @@ SOLVER = Table("solver", (
         choices=("auto", True, False), default=SolverOptions.nested),
     Key("backend", "choice", "sparse factorisation, shared by all solves (`shellcontact info` lists those "
         "installed)", choices=("auto", *BACKENDS), default=SolverOptions.backend),
+    Key("out_of_core", "bool", "the `mumps` backend keeps its factors on disk (MUMPS's out-of-core mode, "
+        "ICNTL(22) = 1; the directory is $MUMPS_OOC_TMPDIR on each rank, default /tmp): for a model whose factors "
+        "do not fit in the ranks' memory ([scaling.md](scaling.md#one-model-on-several-processes-mumps-over-mpi)); "
+        "other backends ignore it", default=False),
     Key("extended_precision", "bool", "refine the final solves U = A⁻¹(F + BᵀΛ) with residuals in extended "
         "precision (`numpy.longdouble`), then refine Λ on those gaps: the force is then not limited by cond(A)·ε "
         "(exact methods; costs a few solves; [solvers.md](solvers.md#accuracy-extended-precision-refinement))",

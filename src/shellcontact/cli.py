@@ -309,6 +309,8 @@ def cmd_info(args: argparse.Namespace, con: Console) -> int:
     con.print(f"linear-algebra backends: {', '.join(available)} (using {default_backend()}; \"auto\" takes the first)")
     for b in BACKENDS.values():
         con.print(f"  {b.name:<8} {'available' if b.name in available else 'not installed':<13}  {b.doc}")
+        if b.details is not None and b.name in available:
+            con.print(f"  {'':<8} {'':<13}  {b.details()}")
     env = ", ".join(
         f"{k}={os.environ.get(k, 'unset')}" for k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
     )
@@ -531,6 +533,19 @@ def _install_handlers() -> dict[int, object]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The command line; under ``mpiexec -n N`` rank 0 runs it and the other ranks serve its MUMPS calls
+    (``linalg.mpi``: exit status 0 on them, rank 0's status is the run's)."""
+    from .launcher import launched_ranks
+
+    if launched_ranks() > 1:
+        from .linalg.mpi import run_on_host
+
+        status = run_on_host(lambda: _main(argv))
+        return EXIT_OK if status is None else status
+    return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
     args = build_parser().parse_args(argv)
     con = Console(quiet=args.quiet)
     handlers = _install_handlers()

@@ -23,6 +23,7 @@ class SolverOptions:
     # than the paper's vertex constraints; "vertices" stays selectable
     contact_points: str = "vertices+midpoints"
     extended_precision: bool = False
+    out_of_core: bool = False  # the mumps backend's factors on disk (ICNTL(22))
     substructure: str | bool = "auto"  # "auto": from solvers.substructure.MIN_UNKNOWNS unknowns on
 
     def with_method(self, method: str | None) -> SolverOptions:

@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError, SolverError
-from . import cholmod, pardiso, superlu
+from . import cholmod, mumps, pardiso, superlu
 from .protocol import Factorization
 from .sparse import equilibrate
 
@@ -27,6 +27,7 @@ class Backend:
     available: Callable[[], bool]  # whether it works on this machine (may import libraries: called once)
     doc: str  # one line
     priority: int  # "auto" takes the available backend with the smallest
+    details: Callable[[], str] | None = None  # version and set-up, for ``shellcontact info`` (when available)
 
     @property
     def supports_schur(self) -> bool:
@@ -42,6 +43,9 @@ BACKENDS: dict[str, Backend] = {b.name: b for b in sorted((
             "SuiteSparse headers)", 1),
     Backend("superlu", superlu.SuperLU, superlu.available,
             "SciPy's SuperLU with a symmetric ordering and diagonal pivots; always installed, the slowest", 2),
+    Backend("mumps", mumps.Mumps, mumps.available,
+            "MUMPS over MPI (libmumps-dev, extra shellcontact[mpi]): one model's factors spread over the ranks of "
+            "`mpiexec -n N shellcontact run`; never chosen by \"auto\"", 9, mumps.describe),
 ), key=lambda b: b.priority)}
 
 
