@@ -37,17 +37,17 @@ MATERIAL = dict(young=1.0, poisson=0.3)
 
 
 def _mesh(n: int):
-    from shellcontact.geometry import Shell
-    from shellcontact.material import Isotropic
-    from shellcontact.mesh import structured
+    from shellcontact.shell.geometry import Shell
+    from shellcontact.shell.material import Isotropic
+    from shellcontact.shell.mesh import structured
 
     return structured(Shell(**PANEL, material=Isotropic(**MATERIAL)), n, n)
 
 
 def _assemble(mesh, st: common.Stages):
     """shellcontact's stages, timed by ``st``: space, Argyris basis, CSR pattern, matrix."""
-    from shellcontact import model
-    from shellcontact.spaces import ShellSpace
+    from shellcontact.shell import model
+    from shellcontact.shell.spaces import ShellSpace
 
     with st.stage("space"):
         space = ShellSpace(mesh)

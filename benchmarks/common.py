@@ -158,7 +158,7 @@ def target(value, goal, unit, peer, **extra) -> dict:
     return {"value": value, "goal": goal, "unit": unit, "peer": peer, **extra}
 
 
-# --- the discrete contact QP of a case, as shellcontact.analysis.solve builds it ---------------------------------
+# --- the discrete contact QP of a case, as shellcontact.analysis.pipeline.solve builds it ---------------------------------
 
 
 def export_qp_parts(case, contact_points: str | None = None):
@@ -167,7 +167,7 @@ def export_qp_parts(case, contact_points: str | None = None):
     The operator gives the punch force of a multiplier vector (``operator.total_normal_force(Lambda)``);
     ``reduction.expand`` maps U_r to the full U.
     """
-    from shellcontact.analysis import discretize
+    from shellcontact.analysis.pipeline import discretize
 
     d = discretize(case, contact_points or case.solver.contact_points)
     return d.qp(), d.operator, d.reduction, d.space

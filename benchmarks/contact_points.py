@@ -68,7 +68,7 @@ class Bench:
 
 def _example(name: str):
     def build(level, points):
-        from shellcontact.case import load_case
+        from shellcontact.problem.case import load_case
 
         nx, nphi = level
         return load_case(ROOT / "examples" / f"{name}.toml",
@@ -78,7 +78,7 @@ def _example(name: str):
 
 def _full_cylinder(length: float, x_max: str, punch: dict, grade: list[float]):
     def build(level, points):
-        from shellcontact.case import case_from_dict
+        from shellcontact.problem.case import case_from_dict
 
         nx, nphi = level
         return case_from_dict({
@@ -95,7 +95,7 @@ def _full_cylinder(length: float, x_max: str, punch: dict, grade: list[float]):
 def _plane(level, points):
     """A rigid flat plate 200 mm long (its zone) pressed 1 mm onto a pipe clamped at both ends: a contact
     line along the crown."""
-    from shellcontact.case import case_from_dict
+    from shellcontact.problem.case import case_from_dict
 
     nx, nphi = level
     return case_from_dict({
@@ -135,7 +135,7 @@ def _sleeve_exact() -> dict:
 def _band_exact() -> dict:
     from oracles.axisym import Shell1D
 
-    from shellcontact.case import load_case
+    from shellcontact.problem.case import load_case
 
     raw = load_case(ROOT / "examples" / "band_clamp.toml").raw
     sh, p = raw["shell"], raw["punch"][0]
@@ -166,7 +166,7 @@ BENCHES = (
 def measure(bench: Bench, level, points: str, repeat: int) -> dict:
     """One solve's force, largest |w| and cost: the process CPU time of ``solve`` (single-threaded BLAS; the
     fairer figure on this shared machine, see benchmarks/common.py) and its wall time, best of ``repeat``."""
-    from shellcontact.analysis import solve
+    from shellcontact.analysis.pipeline import solve
 
     case = bench.build(level, points)
     cpu = wall = math.inf
@@ -252,7 +252,7 @@ def main(argv=None) -> dict:
     if unknown:
         ap.error(f"unknown case(s) {unknown}; choose from {[b.name for b in BENCHES]}")
     print(common.machine_line(common.machine()), flush=True)
-    from shellcontact.analysis import solve
+    from shellcontact.analysis.pipeline import solve
 
     solve(_example("paper_panel")((8, 8), "vertices"))  # warm-up: imports and caches outside the timings
 

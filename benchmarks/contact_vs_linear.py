@@ -36,8 +36,8 @@ def worker(n: int, method: str, repeat: int = 3, points: str = "default") -> dic
     import scipy.sparse as sp
 
     from shellcontact import linalg
-    from shellcontact.analysis import solve
-    from shellcontact.case import load_case
+    from shellcontact.analysis.pipeline import solve
+    from shellcontact.problem.case import load_case
 
     linalg.factorize(sp.identity(4, format="csr")).solve(np.ones(4))  # load the libraries outside the timings
     sets = [f"mesh.nx={n}", f"mesh.nphi={n}"] + ([] if points == "default" else [f"solver.contact_points={points}"])

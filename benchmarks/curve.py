@@ -49,8 +49,8 @@ INDENTATION = 1e-2  # m: the demo's indentation (``--control indentation``)
 
 def curve_cases(n: int, points: int, control: str = "force", contact_points: str = "default"):
     """The curve's cases: forces P/k … P, or (``control="indentation"``) indentations d/k … d."""
-    from shellcontact.case import case_from_dict, load_case
-    from shellcontact.overrides import apply_overrides
+    from shellcontact.problem.case import case_from_dict, load_case
+    from shellcontact.inputs.overrides import apply_overrides
 
     sets = [f"mesh.nx={n}", f"mesh.nphi={n}"]
     base = load_case(CASE, sets + ([] if contact_points == "default" else [f"solver.contact_points={contact_points}"]))
@@ -98,8 +98,8 @@ def worker(n: int, points: int, repeat: int, control: str = "force", contact_poi
     import scipy.sparse as sp
 
     from shellcontact import linalg
-    from shellcontact.analysis import solve
-    from shellcontact.curves import solve_family
+    from shellcontact.analysis.pipeline import solve
+    from shellcontact.studies.curves import solve_family
 
     linalg.factorize(sp.identity(4, format="csr")).solve(np.ones(4))  # load the libraries outside the timings
     for r in solve_family(curve_cases(8, 2, control, contact_points)):  # every module a solve imports on first use

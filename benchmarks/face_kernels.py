@@ -62,8 +62,8 @@ def kernels(m: int = 7749, n: int = 5193, q: int = 100) -> None:
 
 
 def force(refine: int, method: str) -> None:
-    from shellcontact.analysis import solve as solve_case
-    from shellcontact.case import load_case
+    from shellcontact.analysis.pipeline import solve as solve_case
+    from shellcontact.problem.case import load_case
 
     t, res = _cpu(solve_case, load_case(CASE, [f"mesh.refine={refine}"]), method=method)
     cs = res.contact.solution
@@ -73,8 +73,8 @@ def force(refine: int, method: str) -> None:
 
 def border(refine: int, counts: list[int]) -> None:
     """CPU seconds of ``substructure.factorize_contact`` bordered by the deepest k rows of the overlap G."""
-    from shellcontact.analysis import discretize
-    from shellcontact.case import load_case
+    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.problem.case import load_case
     from shellcontact.solvers.substructure import factorize_contact
 
     qp = discretize(load_case(CASE, [f"mesh.refine={refine}"])).qp()

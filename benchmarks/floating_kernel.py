@@ -18,8 +18,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def main(sizes=(4, 8, 12)) -> None:
-    from shellcontact.analysis import discretize
-    from shellcontact.case import load_case
+    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.problem.case import load_case
 
     for n in sizes:
         case = load_case(ROOT / "examples" / "paper_panel.toml", [f"mesh.nx={n}", f"mesh.nphi={n}"])

@@ -54,8 +54,8 @@ def worker(nx: int, nphi: int, refine: int, extended: bool) -> dict:
     import scipy.sparse as sp
 
     from shellcontact import linalg
-    from shellcontact.analysis import solve
-    from shellcontact.case import load_case
+    from shellcontact.analysis.pipeline import solve
+    from shellcontact.problem.case import load_case
 
     linalg.factorize(sp.identity(4, format="csr")).solve(np.ones(4))  # load the libraries outside the timings
     case = load_case(CASE, overrides(nx, nphi, refine, extended))

@@ -32,12 +32,12 @@ MATERIAL = dict(young=1.0, poisson=0.3)
 
 
 def build_system(n: int):
-    from shellcontact import model
-    from shellcontact.geometry import Shell
-    from shellcontact.material import Isotropic
-    from shellcontact.mesh import structured
-    from shellcontact.spaces import ShellSpace
-    from shellcontact.supports import Reduction, Supports
+    from shellcontact.shell import model
+    from shellcontact.shell.geometry import Shell
+    from shellcontact.shell.material import Isotropic
+    from shellcontact.shell.mesh import structured
+    from shellcontact.shell.spaces import ShellSpace
+    from shellcontact.shell.supports import Reduction, Supports
 
     space = ShellSpace(structured(Shell(**PANEL, material=Isotropic(**MATERIAL)), n, n))
     A = model.stiffness(space)

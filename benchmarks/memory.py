@@ -1,4 +1,4 @@
-"""The memory estimate (shellcontact.sizing) against the peak resident set of real runs, and the fill.
+"""The memory estimate (shellcontact.problem.sizing) against the peak resident set of real runs, and the fill.
 
     python benchmarks/memory.py                  # 10k → 281k dofs (about a minute, 2 GB)
     python benchmarks/memory.py --sizes 32/3     # n/refine pairs of the paper panel (1.12M dofs: ~8 GB)
@@ -26,9 +26,9 @@ SIZES = ("24/0", "32/0", "64/0", "32/1", "96/0", "64/1", "32/2")
 
 CHILD = """
 import json, math, resource, sys
-from shellcontact.case import load_case
-from shellcontact.analysis import solve
-from shellcontact.punches import place_punches
+from shellcontact.problem.case import load_case
+from shellcontact.analysis.pipeline import solve
+from shellcontact.contact.punches import place_punches
 from shellcontact import sizing
 n, r = map(int, sys.argv[1].split("/"))
 case = load_case(sys.argv[2], sets=[f"mesh.nx={n}", f"mesh.nphi={n}", f"mesh.refine={r}"])

@@ -28,8 +28,8 @@ CASE = Path(__file__).resolve().parent.parent / "src" / "shellcontact" / "cases"
 def per_rank(n: int, linear: bool, share: float, ranks: int) -> tuple[float, float, float]:
     """(dofs, rank 0 GB, other ranks GB) of the n × n panel on ``ranks`` ranks."""
     import shellcontact
-    from shellcontact.punches import place_punches
-    from shellcontact.sizing import estimate
+    from shellcontact.contact.punches import place_punches
+    from shellcontact.problem.sizing import estimate
 
     case = shellcontact.load_case(CASE, [f"mesh.nx={n}", f"mesh.nphi={n}"])
     punches = [] if linear else place_punches(case.punches, case.shell, case.units)

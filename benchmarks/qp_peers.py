@@ -5,7 +5,7 @@
     python benchmarks/qp_peers.py --n 48 --peers osqp,clarabel
 
 The QP  min ½UᵀAU − FᵀU  s.t.  G + BU ≥ 0  is exported once per process from the demo case by
-``common.export_qp`` (exactly the reduced QP that ``shellcontact.analysis.solve`` solves) and given
+``common.export_qp`` (exactly the reduced QP that ``shellcontact.analysis.pipeline.solve`` solves) and given
 to every solver, each in a fresh subprocess, at the tolerance settings 1e-4, 1e-6, 1e-8, 1e-10:
 
 * shellcontact ``solve_active_set`` and ``solve_dual`` (tol = the setting; time = factorisation
@@ -191,7 +191,7 @@ def run_lbfgsb(qp, tol: float):
 
 def worker(n: int, peer: str) -> dict:
     from shellcontact import linalg
-    from shellcontact.case import load_case
+    from shellcontact.problem.case import load_case
     from shellcontact.linalg import factorize
     from shellcontact.solvers import kkt, kkt_residuals, solve_active_set
 

@@ -100,7 +100,7 @@ CPU: dict[str, float] = {}
 
 def _install_timer() -> None:
     """Wrap analysis.Timer so that each stage also records its peak RSS and CPU seconds."""
-    from shellcontact import analysis
+    from shellcontact.analysis import pipeline as analysis
 
     base = analysis.Timer
 
@@ -129,8 +129,8 @@ def worker(n: int, refine: int, method: str, nested: bool, backend: str = "auto"
     import scipy.sparse as sp
 
     from shellcontact import linalg
-    from shellcontact.analysis import solve
-    from shellcontact.case import load_case
+    from shellcontact.analysis.pipeline import solve
+    from shellcontact.problem.case import load_case
 
     linalg.factorize(sp.identity(4, format="csr")).solve(np.ones(4))  # load the libraries outside the timings
     _install_timer()

@@ -33,12 +33,13 @@ STAGES = ("mesh", "space + basis", "assembly", "reduction", "factorization", "so
 def worker(n: int, backend: str) -> dict:
     import scipy.sparse as sp
 
-    from shellcontact import linalg, model
-    from shellcontact.geometry import Shell
-    from shellcontact.material import Isotropic
-    from shellcontact.mesh import structured
-    from shellcontact.spaces import ShellSpace
-    from shellcontact.supports import Reduction, Supports
+    from shellcontact import linalg
+    from shellcontact.shell import model
+    from shellcontact.shell.geometry import Shell
+    from shellcontact.shell.material import Isotropic
+    from shellcontact.shell.mesh import structured
+    from shellcontact.shell.spaces import ShellSpace
+    from shellcontact.shell.supports import Reduction, Supports
 
     linalg.factorize(sp.identity(4, format="csr")).solve(np.ones(4))  # load MKL/CHOLMOD outside the timings
     st = common.Stages(trace_memory=True)

@@ -45,14 +45,14 @@ def rates():
 def solve_fe():
     """Assemble and solve the linear shell problem on a given mesh (no case file involved).
 
-    Returns (space, U, A, F, reduction); ``loads`` is a shellcontact.loads.Loads or a full
+    Returns (space, U, A, F, reduction); ``loads`` is a shellcontact.shell.loads.Loads or a full
     load vector.
     """
-    from shellcontact import model
+    from shellcontact.shell import model
     from shellcontact.linalg import factorize
-    from shellcontact.loads import load_vector
-    from shellcontact.spaces import ShellSpace
-    from shellcontact.supports import Reduction
+    from shellcontact.shell.loads import load_vector
+    from shellcontact.shell.spaces import ShellSpace
+    from shellcontact.shell.supports import Reduction
 
     def _solve(mesh, supports, loads):
         space = ShellSpace(mesh)

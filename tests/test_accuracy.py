@@ -21,13 +21,13 @@ from test_axisymmetric_pressure import _exact
 from test_shell_benchmarks import PINCHED, SCORDELIS_LO
 
 import shellcontact as sc
-from shellcontact import accuracy
+from shellcontact.studies import accuracy
 from shellcontact.errors import InputError
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
-def _ratio(est: sc.accuracy.Estimate, path: str, exact: float) -> float:
+def _ratio(est: sc.studies.accuracy.Estimate, path: str, exact: float) -> float:
     """The estimate over the true relative error of ``path``."""
     entry = est.accuracy[path]
     true = abs(entry["value"] - exact) / abs(exact)
@@ -177,7 +177,7 @@ def test_refine_to_reaches_the_tolerance_it_reports():
 def test_refine_to_stops_at_the_memory_guard_with_the_results_it_reached():
     """A memory limit between the needs of mesh.refine = 0 and 1 (sizing.estimate): the case's own mesh is
     solved and estimated, the refinement stops naming the guard, and nothing beyond is built."""
-    from shellcontact import sizing
+    from shellcontact.problem import sizing
 
     case = sc.load_case(EXAMPLES / "scordelis_lo.toml", sets=["mesh.nx=8", "mesh.nphi=8"])
     finer = sc.load_case(EXAMPLES / "scordelis_lo.toml", sets=["mesh.nx=8", "mesh.nphi=8", "mesh.refine=1"])
@@ -189,7 +189,7 @@ def test_refine_to_stops_at_the_memory_guard_with_the_results_it_reached():
 
 
 def test_a_failing_coarsest_mesh_leaves_two_meshes_and_a_failing_next_one_is_named(monkeypatch):
-    from shellcontact import analysis
+    from shellcontact.analysis import pipeline as analysis
 
     real = analysis.solve
 

@@ -11,8 +11,8 @@ import pytest
 
 import shellcontact
 from shellcontact import InputError
-from shellcontact.schema import Key
-from shellcontact.studies import convergence, sweep
+from shellcontact.inputs.schema import Key
+from shellcontact.studies.runner import convergence, sweep
 
 CASE = {
     "shell": {"radius": 25.0, "length": 25.0, "x_start": 0.0, "angle": [50.0, 90.0], "thickness": 0.25,

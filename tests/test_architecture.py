@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from shellcontact.case import case_from_dict
+from shellcontact.problem.case import case_from_dict
 from shellcontact.errors import InputError
 
 DOC = (Path(__file__).resolve().parents[1] / "docs" / "architecture.md").read_text()
@@ -36,7 +36,7 @@ def _panel(punch: dict, method: str = "active-set") -> dict:
 
 @pytest.fixture(scope="module")
 def cone():
-    from shellcontact.punches import SHAPES, shapes
+    from shellcontact.contact.punches import SHAPES, shapes
 
     exec(_block("**A punch shape.**"), dict(vars(shapes)))  # registers "cone" in the shape registry
     try:

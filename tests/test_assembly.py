@@ -15,12 +15,12 @@ import scipy.sparse as sp
 from scipy.spatial import Delaunay
 from skfem import BilinearForm, CellBasis, ElementTriArgyris, ElementTriP2, MeshTri
 
-from shellcontact import model
-from shellcontact.argyris import ArgyrisBasis, edge_normals
-from shellcontact.geometry import Shell
-from shellcontact.material import Isotropic
-from shellcontact.mesh import ShellMesh, structured
-from shellcontact.spaces import ShellSpace
+from shellcontact.shell import model
+from shellcontact.shell.argyris import ArgyrisBasis, edge_normals
+from shellcontact.shell.geometry import Shell
+from shellcontact.shell.material import Isotropic
+from shellcontact.shell.mesh import ShellMesh, structured
+from shellcontact.shell.spaces import ShellSpace
 
 # -- the previous implementation, kept as the reference --------------------------------------
 

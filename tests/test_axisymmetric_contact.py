@@ -31,7 +31,7 @@ from oracles.axisym import (
 )
 
 import shellcontact
-from shellcontact.case import case_from_dict
+from shellcontact.problem.case import case_from_dict
 
 A, T, E, MU = 1.0, 0.02, 2.0e5, 0.3
 ANGLE = 1.0  # degrees: panel width
@@ -309,7 +309,7 @@ def test_active_set_hands_over_when_it_makes_no_progress():
     mesh.refine = 0 (605 rows) without revisiting a set: the rows on the wrong side hover between 36 and 100. The
     active set hands over to the dual once they stop falling (measured: at iteration 29, then 11 dual iterations)
     and gets the answer of the default settings; without the fallback it says it makes no progress."""
-    from shellcontact.analysis import discretize
+    from shellcontact.analysis.pipeline import discretize
     from shellcontact.solvers import solve_active_set
 
     qp = discretize(case_from_dict(_wide_sleeve(0))).qp()

@@ -153,7 +153,7 @@ def test_pressurized_cylinder_matches_closed_form(examples_dir):
         "full cylinder": replace(
             case,
             shell=replace(sh, full=True, alpha=0.0, beta=2 * math.pi),
-            supports=sc.case.Supports("clamped", "clamped", "periodic", "periodic"),
+            supports=sc.problem.case.Supports("clamped", "clamped", "periodic", "periodic"),
             mesh=replace(case.mesh, nphi=24),
         ),
     }

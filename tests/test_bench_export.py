@@ -1,14 +1,14 @@
-"""benchmarks/common.export_qp builds the same reduced QP as shellcontact.analysis.solve (no timings here)."""
+"""benchmarks/common.export_qp builds the same reduced QP as shellcontact.analysis.pipeline.solve (no timings here)."""
 
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from shellcontact.analysis import solve
-from shellcontact.case import load_case
+from shellcontact.analysis.pipeline import solve
+from shellcontact.problem.case import load_case
 from shellcontact.solvers import kkt, solve_active_set
-from shellcontact.supports import Reduction
+from shellcontact.shell.supports import Reduction
 
 BENCH = Path(__file__).resolve().parent.parent / "benchmarks"
 sys.path.insert(0, str(BENCH))

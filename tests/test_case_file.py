@@ -13,7 +13,7 @@ import pytest
 
 import shellcontact as sc
 from shellcontact.errors import InputError
-from shellcontact.material import Isotropic
+from shellcontact.shell.material import Isotropic
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.toml"))
 
@@ -227,9 +227,9 @@ def test_variable_thickness_monotonicity_and_limit(rates):
 
 def test_thickness_function_enters_the_stiffness_at_x_phi():
     """u = x (ε11 = 1, all other strains 0) has a(U, U) = E/(1 − μ²) ∫ t(x, φ) a dx dφ exactly."""
-    from shellcontact import model
-    from shellcontact.mesh import structured
-    from shellcontact.spaces import QUANTITIES, ShellSpace
+    from shellcontact.shell import model
+    from shellcontact.shell.mesh import structured
+    from shellcontact.shell.spaces import QUANTITIES, ShellSpace
 
     sh0 = sc.case_from_dict(BASE).shell
     t0, al, be = 0.1, sh0.alpha, sh0.beta
@@ -252,7 +252,7 @@ def test_thickness_function_enters_the_stiffness_at_x_phi():
 
 def test_position_dependent_load_from_a_case_file(tmp_path, monkeypatch):
     """loads.normal = "module:callable" is the same load as the callable given from Python."""
-    import shellcontact.loads as ld
+    import shellcontact.shell.loads as ld
 
     (tmp_path / "myloads.py").write_text(
         "import numpy as np\n\ndef hydro(x, phi):\n    return 9810.0 * (1.0 - np.sin(phi)) * (1.0 + 0.1 * x)\n"

@@ -1,4 +1,4 @@
-"""Point forces and the interior pressure of the contact measure (shellcontact.point_forces, shellcontact.interior).
+"""Point forces and the interior pressure of the contact measure (shellcontact.contact.point_forces, shellcontact.contact.interior).
 
 For a Kirchhoff shell the contact multiplier is a measure: a pressure inside the contact set, line forces along
 its edges and point forces where a zone shrinks to a point. Checked here against independent references:
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import shellcontact
-from shellcontact.case import case_from_dict, load_case
+from shellcontact.problem.case import case_from_dict, load_case
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -62,8 +62,8 @@ def test_point_force_on_console_report_and_map(light_touch, capsys):
     labelled with its force), with the same value."""
     from shellcontact.cli import _print_summary
     from shellcontact.console import Console
-    from shellcontact.contact_figures import plot_pressure
-    from shellcontact.report import _headline
+    from shellcontact.outputs.figures.contact import plot_pressure
+    from shellcontact.outputs.report import _headline
 
     res = light_touch[0]
     s = res.summary()

@@ -7,14 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from shellcontact.analysis import case_mesh
-from shellcontact.case import case_from_dict
-from shellcontact.contact import contact_operator, penetration_outside
+from shellcontact.analysis.pipeline import case_mesh
+from shellcontact.problem.case import case_from_dict
+from shellcontact.contact.operator import contact_operator, penetration_outside
 from shellcontact.errors import InputError
-from shellcontact.geometry import frame, rigid_motion
-from shellcontact.punches import place_punches
-from shellcontact.spaces import ShellSpace
-from shellcontact.supports import Reduction
+from shellcontact.shell.geometry import frame, rigid_motion
+from shellcontact.contact.punches import place_punches
+from shellcontact.shell.spaces import ShellSpace
+from shellcontact.shell.supports import Reduction
 
 SHELL = {"radius": 1.0, "length": 2.0, "thickness": 0.05, "young": 1e3, "poisson": 0.3}
 

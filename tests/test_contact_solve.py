@@ -29,15 +29,16 @@ from functools import cache
 import numpy as np
 import pytest
 
-from shellcontact import model, solve
-from shellcontact.analysis import default_penalty
-from shellcontact.case import case_from_dict
+from shellcontact import solve
+from shellcontact.shell import model
+from shellcontact.analysis.pipeline import default_penalty
+from shellcontact.problem.case import case_from_dict
 from shellcontact.demo import demo_case_path
 from shellcontact.errors import InputError
-from shellcontact.geometry import rigid_motion
+from shellcontact.shell.geometry import rigid_motion
 from shellcontact.linalg import factorize
 from shellcontact.solvers import ContactQP, InfeasibleProblemError, dual_value, lagrangian
-from shellcontact.supports import Reduction
+from shellcontact.shell.supports import Reduction
 
 METHODS = ("active-set", "dual", "penalty")
 EXACT = ("active-set", "dual")
@@ -599,7 +600,7 @@ def test_punch_on_clamped_edge_is_infeasible(method):
 def test_clamped_panel_has_spd_stiffness_and_free_panel_rigid_motions():
     """(6.5): with clamped edges A is SPD; on a free panel the six rigid motions (interpolated)
     have energy → 0 with h (they are exact only up to interpolation of cos φ, sin φ)."""
-    from shellcontact.spaces import ShellSpace
+    from shellcontact.shell.spaces import ShellSpace
 
     res = _solved("sphere", "active-set")
     qp, _ = reduced_qp(res)
@@ -622,11 +623,11 @@ def test_case_file_reference_is_generated_from_the_schema():
     every table of the schema, every shape and every key appears in it."""
     from pathlib import Path
 
-    from shellcontact.case import CASE, DOC_TABLES, document
-    from shellcontact.punches import SHAPES
+    from shellcontact.problem.case import CASE, DOC_TABLES, document
+    from shellcontact.contact.punches import SHAPES
 
     text = (Path(__file__).resolve().parents[1] / "docs" / "case-file.md").read_text()
-    assert document(text) == text, "docs/case-file.md is stale: run python -m shellcontact.case docs/case-file.md"
+    assert document(text) == text, "docs/case-file.md is stale: run python -m shellcontact.problem.case docs/case-file.md"
     for name, table in DOC_TABLES.items():
         assert f"<!-- keys: {name} -->" in text
         assert all(f"| `{k}` |" in text for k in table.names())

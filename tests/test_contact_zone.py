@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-from shellcontact.analysis import discretize
+from shellcontact.analysis.pipeline import discretize
 from shellcontact.demo import demo_case_path
 
 
@@ -68,9 +68,9 @@ def test_a_plate_placed_at_round_off_overlap_counts_as_just_touching():
     zone is where it carries force (zone_points.py): its tolerance is round-off, 1e-9 × that motion."""
     from pathlib import Path
 
-    from shellcontact.contact import ZONE_GAP
-    from shellcontact.punches import place_punches
-    from shellcontact.zone_points import ROUND_OFF_GAP
+    from shellcontact.contact.operator import ZONE_GAP
+    from shellcontact.contact.punches import place_punches
+    from shellcontact.contact.zone_points import ROUND_OFF_GAP
 
     case = sc.load_case(Path(__file__).resolve().parents[1] / "examples" / "ring_stiffness.toml",
                         ["mesh.nx=4", "mesh.nphi=32"])
@@ -87,7 +87,7 @@ def test_a_plate_placed_at_round_off_overlap_counts_as_just_touching():
 def test_the_space_memo_keeps_what_is_used_again():
     """ShellSpace.memo drops the least recently used evaluation: the zone basis that every point of a curve
     reads survives the new rim points each point adds (it was dropped as the oldest before)."""
-    from shellcontact.spaces import MEMO_ENTRIES
+    from shellcontact.shell.spaces import MEMO_ENTRIES
 
     space = discretize(sc.load_case(demo_case_path(), ["mesh.nx=4", "mesh.nphi=4"])).space
     space.memo = {}
@@ -100,7 +100,7 @@ def test_the_space_memo_keeps_what_is_used_again():
 
 
 def test_field_derivatives_of_some_quantities_equal_those_of_all():
-    from shellcontact.model import field_derivatives
+    from shellcontact.shell.model import field_derivatives
 
     space = discretize(sc.load_case(demo_case_path(), ["mesh.nx=4", "mesh.nphi=4"])).space
     U = np.random.default_rng(3).standard_normal(space.ndofs)

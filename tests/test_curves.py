@@ -8,12 +8,12 @@ import meshio
 import numpy as np
 import pytest
 
-from shellcontact.analysis import solve
-from shellcontact.case import case_from_dict
-from shellcontact.curves import family_key, solve_family
+from shellcontact.analysis.pipeline import solve
+from shellcontact.problem.case import case_from_dict
+from shellcontact.studies.curves import family_key, solve_family
 from shellcontact.errors import InputError
-from shellcontact.mesh import structured
-from shellcontact.overrides import apply_overrides
+from shellcontact.shell.mesh import structured
+from shellcontact.inputs.overrides import apply_overrides
 
 #: fields and forces of a warm-started point against the lone solve, relative to their size: both are the
 #: KKT point of the same strictly convex QP at tolerance 1e-10 (measured differences ~1e-13)
@@ -162,7 +162,7 @@ def test_cases_of_different_families_are_refused():
 def test_a_punch_sweep_is_the_separate_solves_bit_for_bit():
     """sweep over a punch key solves its steps as one family (no warm start): each CSV row is the lone
     solve's, digit for digit, as a resumed sweep needs."""
-    from shellcontact.studies import summary_row, sweep
+    from shellcontact.studies.runner import summary_row, sweep
 
     raw = panel({"force": 1e4})
     values = [2e4, 6e4, 1.2e5]
@@ -175,7 +175,7 @@ def test_a_punch_sweep_is_the_separate_solves_bit_for_bit():
 def test_a_force_curve_with_a_poor_border_runs_those_points_alone(monkeypatch):
     """When the rows bordering the factorisation miss rows a point touches, that point's outside rows
     penetrate on the block solves' U and it runs the lone screened solve: the same Results."""
-    import shellcontact.curves as curves
+    import shellcontact.studies.curves as curves
 
     punch, key, values = CURVES["force"]
     points = cases(panel(punch, substructure=True), key, values)

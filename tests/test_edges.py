@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-from shellcontact.case import read_case_dict
+from shellcontact.problem.case import read_case_dict
 from shellcontact.errors import InputError
-from shellcontact.validity import EQUILIBRIUM_LIMIT
+from shellcontact.analysis.validity import EQUILIBRIUM_LIMIT
 
 ROOT = Path(__file__).resolve().parents[1]
 PANEL = ROOT / "examples" / "paper_panel.toml"
@@ -101,7 +101,7 @@ def test_a_finite_punch_gives_the_same_force_wherever_its_centre_is_written() ->
 def test_node_lines_closer_than_a_small_share_of_an_interval_are_one_line() -> None:
     """A required line 1e-7 rad from a grading focus (a 48-interval circle: 1e-6 of an interval) is merged into
     the focus; lines a tenth of an interval apart stay two."""
-    from shellcontact.mesh import graded_nodes
+    from shellcontact.shell.mesh import graded_nodes
 
     two_pi = 2 * np.pi
     nodes = graded_nodes(0.0, two_pi, 48, focus=[1.5 * np.pi], ratio=12.0, required=[1.5 * np.pi - 1e-7])

@@ -16,15 +16,15 @@ import numpy as np
 import pytest
 from skfem import CellBasis, ElementTriArgyris, ElementTriP2
 
-from shellcontact import model
+from shellcontact.shell import model
 from shellcontact.errors import InputError
-from shellcontact.geometry import Shell, rigid_motion, to_local
+from shellcontact.shell.geometry import Shell, rigid_motion, to_local
 from shellcontact.linalg import factorize
-from shellcontact.material import Isotropic, Orthotropic
-from shellcontact.mesh import structured
-from shellcontact.model import element_chunks, field_derivatives
-from shellcontact.spaces import QUANTITIES, ShellSpace
-from shellcontact.supports import RIGID_MOTIONS, Reduction, Supports
+from shellcontact.shell.material import Isotropic, Orthotropic
+from shellcontact.shell.mesh import structured
+from shellcontact.shell.model import element_chunks, field_derivatives
+from shellcontact.shell.spaces import QUANTITIES, ShellSpace
+from shellcontact.shell.supports import RIGID_MOTIONS, Reduction, Supports
 
 PANEL = Shell(
     radius=2.0,

@@ -58,7 +58,7 @@ def test_edge_reactions_are_the_closed_form_edge_resultants():
     from scipy.integrate import quad
     from test_axisymmetric_pressure import _exact
 
-    from shellcontact.geometry import frame
+    from shellcontact.shell.geometry import frame
 
     errors = []
     for nx in (40, 80):

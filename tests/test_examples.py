@@ -25,7 +25,7 @@ import pytest
 from oracles.axisym import Shell1D, sleeve_free_boundary
 
 import shellcontact as sc
-from shellcontact.geometry import rigid_motion
+from shellcontact.shell.geometry import rigid_motion
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

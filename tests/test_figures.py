@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-from shellcontact import plots
-from shellcontact.analysis import solve
-from shellcontact.case import case_from_dict, key_kind, load_case
+from shellcontact.outputs.figures import run as plots
+from shellcontact.analysis.pipeline import solve
+from shellcontact.problem.case import case_from_dict, key_kind, load_case
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -100,7 +100,7 @@ def test_one_colour_scale_per_quantity(panel) -> None:
     the pressure only where the contact covers at least a tenth of the shell's vertices (the panel's 2 % was a
     speck on an otherwise grey panel): here a sleeve gripping the whole of a long pipe
     (the band clamp without its extent)."""
-    from shellcontact.case import read_case_dict
+    from shellcontact.problem.case import read_case_dict
 
     bars = [ax for ax in plots.plot_deformed(panel).axes if ax.name != "3d"]
     assert len(bars) == 1

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-from shellcontact import supports
+from shellcontact.shell import supports
 from shellcontact.cli import main as cli_main
 from shellcontact.errors import InputError
 
@@ -118,7 +118,7 @@ def test_three_methods_agree_and_penalty_to_order_kappa():
     pen = sc.solve(full_case(), method="penalty")
     t_d, t_a = dual["contact"][0]["punch_travel"], exact["contact"][0]["punch_travel"]
     assert abs(t_d - t_a) <= 1e-8 * t_a
-    kappa = sc.analysis.penalty_ratio(pen.case, pen.info["penalty"])
+    kappa = sc.analysis.pipeline.penalty_ratio(pen.case, pen.info["penalty"])
     t_p = pen.summary()["contact"][0]["punch_travel"]
     assert abs(t_p - t_a) <= 10 * kappa * t_a
     Ud, Ua = solved("full", "dual").solution.U, solved("full", "active-set").solution.U

@@ -10,7 +10,7 @@ import pytest
 from test_contact_solve import sphere_dict
 
 from shellcontact import solve
-from shellcontact.case import case_from_dict
+from shellcontact.problem.case import case_from_dict
 from shellcontact.errors import InputError
 
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from test_contact_operator import BAR, ELL, SPHERE, SPHERE_IN, kirchhoff, polynomial, setup, smooth
 
-from shellcontact.friction import tangential_operator
-from shellcontact.geometry import rigid_motion
+from shellcontact.contact.friction import tangential_operator
+from shellcontact.shell.geometry import rigid_motion
 
 
 @pytest.mark.parametrize("punch", [[SPHERE], [SPHERE_IN], [BAR, ELL]])

@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from shellcontact import linalg, model
+from shellcontact import linalg
+from shellcontact.shell import model
 from shellcontact.errors import InputError, SolverError
-from shellcontact.geometry import Shell
-from shellcontact.material import Isotropic
-from shellcontact.mesh import structured
-from shellcontact.spaces import ShellSpace
-from shellcontact.supports import Reduction, Supports
+from shellcontact.shell.geometry import Shell
+from shellcontact.shell.material import Isotropic
+from shellcontact.shell.mesh import structured
+from shellcontact.shell.spaces import ShellSpace
+from shellcontact.shell.supports import Reduction, Supports
 
 BACKENDS = linalg.available_backends()
 

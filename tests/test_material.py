@@ -44,14 +44,14 @@ import pytest
 from test_axisymmetric_pressure import ClampedPressurizedCylinder
 
 import shellcontact as sc
-from shellcontact import model
-from shellcontact.analysis import default_penalty
-from shellcontact.case import MATERIAL, read_case_dict
+from shellcontact.shell import model
+from shellcontact.analysis.pipeline import default_penalty
+from shellcontact.problem.case import MATERIAL, read_case_dict
 from shellcontact.errors import InputError
-from shellcontact.geometry import Shell
-from shellcontact.material import Isotropic, Orthotropic
-from shellcontact.mesh import structured
-from shellcontact.spaces import QUANTITIES, ShellSpace
+from shellcontact.shell.geometry import Shell
+from shellcontact.shell.material import Isotropic, Orthotropic
+from shellcontact.shell.mesh import structured
+from shellcontact.shell.spaces import QUANTITIES, ShellSpace
 
 # a hoop-wound pipe (stiffer around the circumference) and an axially stiff one
 HOOP_WOUND = Orthotropic(e1=1.0e4, e2=2.5e4, g12=0.4e4, nu12=0.12)

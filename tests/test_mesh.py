@@ -12,9 +12,9 @@ from scipy.spatial import Delaunay
 
 import shellcontact as sc
 from shellcontact.errors import InputError
-from shellcontact.geometry import Shell
-from shellcontact.material import Isotropic
-from shellcontact.mesh import PATTERNS, graded_nodes, structured
+from shellcontact.shell.geometry import Shell
+from shellcontact.shell.material import Isotropic
+from shellcontact.shell.mesh import PATTERNS, graded_nodes, structured
 
 SHELL = Shell(radius=2.0, length=3.0, thickness=0.05, material=Isotropic(1e5, 0.3), alpha=0.2, beta=1.4)
 

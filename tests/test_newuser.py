@@ -112,7 +112,7 @@ def test_the_demo_table_fits_100_characters_on_the_console() -> None:
     """The demo's comparison (a Markdown table of 13 columns, 160 characters; comparison.md keeps it whole) is
     printed in blocks of columns led by the method, each line at most 100 characters, no column lost."""
     from shellcontact.demo import COLUMNS, format_table
-    from shellcontact.tables import split_markdown
+    from shellcontact.outputs.tables import split_markdown
 
     rows = [{key: (method if key == "method" else 12 if "d}" in fmt else 1.234567e-5) for key, _, _, fmt in COLUMNS}
             for method in ("penalty", "active-set", "dual")]

@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shellcontact.analysis import discretize, penalty_ratio, solve
-from shellcontact.case import case_from_dict
+from shellcontact.analysis.pipeline import discretize, penalty_ratio, solve
+from shellcontact.problem.case import case_from_dict
 from shellcontact.cli import main
 from shellcontact.errors import InputError, SolverError
-from shellcontact.files import json_text
+from shellcontact.outputs.files import json_text
 from shellcontact.solvers import solve_active_set, solve_dual
 from shellcontact.solvers.qp import ContactQP
 

@@ -21,7 +21,7 @@ import pytest
 from oracles.ring import SERIES_SUM, Ring, classical_diametral_change
 
 import shellcontact
-from shellcontact.case import case_from_dict
+from shellcontact.problem.case import case_from_dict
 
 A, T, E, MU = 0.1, 0.005, 2.1e11, 0.3  # a steel pipe, a/t = 20
 P = 1000.0  # N per metre of generator

@@ -68,6 +68,6 @@ def test_reader_sees_lazy_and_absolute_imports(tmp_path: Path) -> None:
     src = tmp_path / "m.py"
     src.write_text(
         "from .files import x\nimport shellcontact.cli\n"
-        "def f():\n    from . import plots\n    from .solvers.dual import y\n    from shellcontact.case import z\n"
+        "def f():\n    from . import plots\n    from .solvers.dual import y\n    from shellcontact.problem.case import z\n"
     )
     assert package_imports(src) == {"files", "cli", "plots", "solvers", "case"}

@@ -138,7 +138,7 @@ def contact_result():
 
 
 def test_contact_arrays_in_vtu_and_npz(tmp_path: Path, contact_result) -> None:
-    from shellcontact.writers import write_npz, write_vtu
+    from shellcontact.outputs.writers import write_npz, write_vtu
 
     result, cand, pressure = contact_result
     nv = result.solution.space.mesh.nvertices
@@ -158,7 +158,7 @@ def test_contact_arrays_in_vtu_and_npz(tmp_path: Path, contact_result) -> None:
 
 
 def test_contact_figures_and_report(tmp_path: Path, contact_result) -> None:
-    from shellcontact.outputs import write_outputs
+    from shellcontact.outputs.run import write_outputs
 
     result, _, _ = contact_result
     stub, result.contact = result.contact, None
@@ -195,7 +195,7 @@ def test_contact_figures_and_report(tmp_path: Path, contact_result) -> None:
 
 
 def test_pressure_lines_pass_through_peak(contact_result) -> None:
-    from shellcontact.plots import pressure_lines
+    from shellcontact.outputs.figures.run import pressure_lines
 
     result, cand, pressure = contact_result
     lines = pressure_lines(result)
@@ -214,11 +214,11 @@ def test_contact_vertex_arrays_gather_operator_rows() -> None:
     """Row values of a real contact operator (paper's panel) gathered on the mesh vertices keep
     their sums: Σ contact_force = Σ Λ, Σ contact_force_vector = the punch resultant Σ Λ_i ∇Z_i."""
     from shellcontact import load_case
-    from shellcontact.analysis import case_mesh
-    from shellcontact.contact import contact_operator
-    from shellcontact.fields import contact_vertex_arrays
-    from shellcontact.punches import place_punches
-    from shellcontact.spaces import ShellSpace
+    from shellcontact.analysis.pipeline import case_mesh
+    from shellcontact.contact.operator import contact_operator
+    from shellcontact.outputs.fields import contact_vertex_arrays
+    from shellcontact.contact.punches import place_punches
+    from shellcontact.shell.spaces import ShellSpace
 
     case = load_case(ROOT / "examples" / "paper_panel.toml", ["mesh.nx=6", "mesh.nphi=6", "mesh.grading={ratio=1.0}"])
     punches = place_punches(case.punches, case.shell)

@@ -9,12 +9,12 @@ import textwrap
 import numpy as np
 import pytest
 
-from shellcontact.analysis import case_mesh
-from shellcontact.case import case_from_dict
+from shellcontact.analysis.pipeline import case_mesh
+from shellcontact.problem.case import case_from_dict
 from shellcontact.errors import InputError
-from shellcontact.geometry import Shell
-from shellcontact.material import Isotropic
-from shellcontact.punches import (
+from shellcontact.shell.geometry import Shell
+from shellcontact.shell.material import Isotropic
+from shellcontact.contact.punches import (
     Cylinder,
     Ellipsoid,
     Plane,
@@ -27,7 +27,7 @@ from shellcontact.punches import (
     place_punches,
     punch_from_dict,
 )
-from shellcontact.user_functions import CodeConsent, code_consent
+from shellcontact.inputs.user_functions import CodeConsent, code_consent
 
 RNG = np.random.default_rng(7)
 

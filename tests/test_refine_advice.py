@@ -17,7 +17,7 @@ import pytest
 from test_axisymmetric_pressure import _exact
 
 import shellcontact as sc
-from shellcontact import accuracy
+from shellcontact.studies import accuracy
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

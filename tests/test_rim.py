@@ -1,4 +1,4 @@
-"""The contact force's decomposition (summary ``contact.rim``, shellcontact.rim): converges, and equals closed forms.
+"""The contact force's decomposition (summary ``contact.rim``, shellcontact.contact.rim): converges, and equals closed forms.
 
 For a Kirchhoff shell the contact multiplier is a measure: a line force along the zone's boundary, a pressure
 inside, point forces where a zone is a point. The paper's panel (a sphere on a clamped panel) carries nearly all
@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 import shellcontact
-from shellcontact.case import case_from_dict, load_case
+from shellcontact.problem.case import case_from_dict, load_case
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -74,7 +74,7 @@ def test_panel_interior_pressure_is_labelled_mesh_dependent(panel_levels):
     the report puts "(mesh-dependent)" next to the number. Not in accuracy.HEADLINES either. At refine 3 (1.12M
     dofs, measured once, docs/outputs.md): interior force 8 354 N (3.1 %), pressure where it carries 3.45 MPa
     over a growing area, still not resolved."""
-    from shellcontact.report import _headline
+    from shellcontact.outputs.report import _headline
 
     for e in panel_levels[1:]:
         rim = e["rim"]

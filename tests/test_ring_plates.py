@@ -28,7 +28,7 @@ import pytest
 from oracles.ring import Ring
 
 import shellcontact as sc
-from shellcontact.case import case_from_dict
+from shellcontact.problem.case import case_from_dict
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ring_stiffness.toml"
 MESHES = (32, 64, 128)

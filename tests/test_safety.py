@@ -24,7 +24,7 @@ from inprocess import run_cli
 
 import shellcontact as sc
 from shellcontact.errors import InputError
-from shellcontact.studies import study
+from shellcontact.studies.runner import study
 
 ROOT = Path(__file__).resolve().parents[1]
 PANEL = str(ROOT / "examples" / "paper_panel.toml")
@@ -88,7 +88,7 @@ def test_force_never_deletes_files_on_a_mounted_filesystem(tmp_path: Path) -> No
 
 
 def test_remove_tree_stops_at_a_mount_point(tmp_path: Path) -> None:
-    from shellcontact.transaction import remove_tree
+    from shellcontact.outputs.transaction import remove_tree
 
     tree = tmp_path / "tree"
     mnt = tree / "a" / "mnt"
@@ -179,7 +179,7 @@ def test_log_on_a_full_disk_is_exit_2_by_name(tmp_path: Path, monkeypatch: pytes
 
 def test_a_full_disk_names_the_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The first write of a run is its lock file's pid: refused by a full disk, it is named."""
-    import shellcontact.transaction as transaction
+    import shellcontact.outputs.transaction as transaction
 
     def full(fd: int, data: bytes) -> int:
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
@@ -214,7 +214,7 @@ def test_a_really_full_disk_names_the_file(tmp_path: Path) -> None:
 def test_the_embedded_cluster_listens_on_loopback_only() -> None:
     import psutil
 
-    from shellcontact.engine import Dask
+    from shellcontact.studies.engine import Dask
 
     engine = Dask(1, None)
     try:
@@ -258,7 +258,7 @@ def _server(answer: bytes | None) -> int:
 
 
 def _connect_within(address: str, seconds: float) -> BaseException | None:
-    from shellcontact.engine import Dask
+    from shellcontact.studies.engine import Dask
 
     box: dict = {}
 
@@ -279,7 +279,7 @@ def _connect_within(address: str, seconds: float) -> BaseException | None:
                          ids=["silent", "http"])
 def test_a_port_that_is_no_scheduler_is_refused_in_time(monkeypatch, answer) -> None:
     """Measured: the silent port is refused after CONNECT_TIMEOUT + 5 s (here 1 + 5); a web server at once."""
-    import shellcontact.engine as engine
+    import shellcontact.studies.engine as engine
 
     monkeypatch.setattr(engine, "CONNECT_TIMEOUT", 1.0)
     exc = _connect_within(f"tcp://127.0.0.1:{_server(answer)}", 30)
@@ -287,7 +287,7 @@ def test_a_port_that_is_no_scheduler_is_refused_in_time(monkeypatch, answer) -> 
 
 
 def test_a_scheduler_without_workers_is_said_and_refused(monkeypatch) -> None:
-    import shellcontact.engine as engine
+    import shellcontact.studies.engine as engine
 
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -331,7 +331,7 @@ def test_bad_points_files_are_exit_2_by_name(tmp_path: Path, monkeypatch, conten
 
 # -- 9. seeds, unit systems, workers, -q -------------------------------------------------------------------
 def test_negative_seed_is_refused() -> None:
-    from shellcontact.sampling import latin_hypercube, parse_spec
+    from shellcontact.studies.sampling import latin_hypercube, parse_spec
 
     spec = [parse_spec("shell.thickness=uniform(0.01,0.02)")]
     assert latin_hypercube(spec, 4, 1) != latin_hypercube(spec, 4, 2)

@@ -1,4 +1,4 @@
-"""The points of a study (shellcontact.sampling): grids, Latin hypercubes, Monte Carlo samples, CSV tables; and
+"""The points of a study (shellcontact.studies.sampling): grids, Latin hypercubes, Monte Carlo samples, CSV tables; and
 the rank correlation the sensitivity figure shows. The distributions are checked against scipy.stats."""
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import pytest
 from scipy import stats
 
 from shellcontact.errors import InputError
-from shellcontact.sampling import grid, latin_hypercube, monte_carlo, parse_spec, read_points, sample
-from shellcontact.studies import rank_correlation
+from shellcontact.studies.sampling import grid, latin_hypercube, monte_carlo, parse_spec, read_points, sample
+from shellcontact.studies.runner import rank_correlation
 
 SPECS = ["shell.thickness=uniform(0.2,0.3)", "material.young=normal(4.32e8,2e7)", "shell.radius=lognormal(25,0.1)"]
 

@@ -21,17 +21,17 @@ import pytest
 import scipy.sparse as sp
 
 import shellcontact as sc
-from shellcontact import model
-from shellcontact.analysis import case_mesh
+from shellcontact.shell import model
+from shellcontact.analysis.pipeline import case_mesh
 from shellcontact.errors import InputError
-from shellcontact.geometry import Shell, rigid_motion
+from shellcontact.shell.geometry import Shell, rigid_motion
 from shellcontact.linalg import factorize
-from shellcontact.loads import LineLoad, Loads, PointLoad, load_vector
-from shellcontact.material import Isotropic
-from shellcontact.mesh import structured
-from shellcontact.results import ShellSolution
-from shellcontact.spaces import ShellSpace
-from shellcontact.supports import Reduction, Supports, check_rigid_motions, constrained_dofs, periodic_pairs
+from shellcontact.shell.loads import LineLoad, Loads, PointLoad, load_vector
+from shellcontact.shell.material import Isotropic
+from shellcontact.shell.mesh import structured
+from shellcontact.outputs.results import ShellSolution
+from shellcontact.shell.spaces import ShellSpace
+from shellcontact.shell.supports import Reduction, Supports, check_rigid_motions, constrained_dofs, periodic_pairs
 
 SCORDELIS_LO = 0.3006
 PINCHED = 1.8248e-5

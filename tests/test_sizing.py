@@ -10,13 +10,13 @@ from pathlib import Path
 
 import pytest
 
-from shellcontact import sizing
-from shellcontact.analysis import discretize, solve
-from shellcontact.case import case_from_dict
+from shellcontact.problem import sizing
+from shellcontact.analysis.pipeline import discretize, solve
+from shellcontact.problem.case import case_from_dict
 from shellcontact.cli import main
 from shellcontact.errors import InputError
-from shellcontact.punches import place_punches
-from shellcontact.studies import parse_values, sweep
+from shellcontact.contact.punches import place_punches
+from shellcontact.studies.runner import parse_values, sweep
 
 ROOT = Path(__file__).resolve().parent.parent
 PANEL = ROOT / "examples" / "paper_panel.toml"
@@ -122,7 +122,7 @@ def test_convergence_refuses_a_finest_level_that_cannot_fit(tmp_path: Path, caps
 def test_counts_on_every_example(path: Path) -> None:
     """Exact dofs and stiffness nonzeros; contact rows exact, or over by the seam of a full cylinder
     whose zone wraps around (the vertices at φ = 0 and 360° are one constraint point)."""
-    from shellcontact.case import load_case
+    from shellcontact.problem.case import load_case
 
     case = load_case(path)
     est = sizing.estimate(case, place_punches(case.punches, case.shell))

@@ -50,7 +50,7 @@ for argv in [["--help"], ["--version"], *([c, "--help"] for c in commands)]:
 def test_overrides_does_not_import_case() -> None:
     """case.load_case uses overrides; the other direction would be an import circle."""
     r = subprocess.run(
-        [sys.executable, "-c", "import sys, shellcontact.overrides; print('shellcontact.case' in sys.modules)"],
+        [sys.executable, "-c", "import sys, shellcontact.inputs.overrides; print('shellcontact.problem.case' in sys.modules)"],
         capture_output=True, text=True, timeout=120,
     )
     assert r.returncode == 0, r.stderr
@@ -58,7 +58,12 @@ def test_overrides_does_not_import_case() -> None:
 
 
 def test_public_names_resolve_to_their_definitions() -> None:
-    from shellcontact import accuracy, analysis, case, errors, geometry, studies
+    from shellcontact import errors
+    from shellcontact.studies import accuracy
+    from shellcontact.analysis import pipeline as analysis
+    from shellcontact.problem import case
+    from shellcontact.shell import geometry
+    from shellcontact.studies import runner as studies
 
     where = {
         "Case": case, "case_from_dict": case, "load_case": case, "Result": analysis, "solve": analysis,

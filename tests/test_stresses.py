@@ -22,11 +22,11 @@ import scipy.sparse as sp
 from test_axisymmetric_pressure import ClampedPressurizedCylinder
 
 import shellcontact as sc
-from shellcontact.geometry import Shell, to_local
-from shellcontact.material import Isotropic, Orthotropic
-from shellcontact.mesh import structured
-from shellcontact.results import SURFACES, ShellSolution, SurfaceState
-from shellcontact.spaces import ShellSpace
+from shellcontact.shell.geometry import Shell, to_local
+from shellcontact.shell.material import Isotropic, Orthotropic
+from shellcontact.shell.mesh import structured
+from shellcontact.outputs.results import SURFACES, ShellSolution, SurfaceState
+from shellcontact.shell.spaces import ShellSpace
 
 
 def _cylinder(nx: int) -> tuple[sc.Result, ClampedPressurizedCylinder]:
@@ -176,7 +176,7 @@ def test_yield_stress_gives_utilisation_and_a_warning(tmp_path):
     a warning when it exceeds 1 (the demo's punch rim is far past the yield of structural steel)."""
     from shellcontact.demo import demo_case_path
 
-    data = sc.case.read_case_dict(demo_case_path())
+    data = sc.problem.case.read_case_dict(demo_case_path())
     data["mesh"].update(nx=8, nphi=8)
     data["material"] = {"yield_stress": 355e6}
     r = sc.solve(sc.case_from_dict(data))

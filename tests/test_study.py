@@ -1,4 +1,4 @@
-"""Parameter studies on Dask (shellcontact.studies.study, shellcontact.engine): the same rows, bit for bit, in this
+"""Parameter studies on Dask (shellcontact.studies.runner.study, shellcontact.studies.engine): the same rows, bit for bit, in this
 process, on an embedded cluster and on a separate scheduler with two worker processes one of which is killed in
 the middle; resumed studies recompute nothing and write the same files; bad keys and values named.
 
@@ -20,11 +20,11 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-import shellcontact.curves as curves
-import shellcontact.studies as studies
+import shellcontact.studies.curves as curves
+import shellcontact.studies.runner as studies
 from shellcontact.errors import InputError
-from shellcontact.sampling import grid, latin_hypercube, parse_spec
-from shellcontact.studies import study
+from shellcontact.studies.sampling import grid, latin_hypercube, parse_spec
+from shellcontact.studies.runner import study
 
 ROOT = Path(__file__).resolve().parents[1]
 PANEL = str(ROOT / "examples" / "paper_panel.toml")
@@ -221,7 +221,7 @@ def test_external_cluster_with_a_killed_worker_equals_serial(tmp_path: Path, das
 def test_parquet_keeps_types_and_writes_a_mixed_column_as_text(tmp_path: Path) -> None:
     import pyarrow.parquet as pq
 
-    from shellcontact.studies import write_parquet
+    from shellcontact.studies.runner import write_parquet
 
     rows = [{"solver.method": "dual", "mesh.refine": 1, "energy": 1.5}, {"solver.method": 2, "mesh.refine": 2}]
     write_parquet(tmp_path / "t.parquet", rows, {"energy": "J"})
@@ -236,7 +236,7 @@ def test_a_task_that_kills_every_worker_is_named() -> None:
     with an input error naming it, after Dask's allowed failures (0 here, to be quick)."""
     import dask
 
-    from shellcontact.engine import open_engine
+    from shellcontact.studies.engine import open_engine
 
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}), pytest.raises(InputError) as err:
         with open_engine(1, None) as engine:
@@ -248,7 +248,7 @@ def test_without_pyarrow_the_parquet_file_is_skipped_with_a_message(tmp_path: Pa
                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     import logging
 
-    from shellcontact.studies import write_parquet
+    from shellcontact.studies.runner import write_parquet
 
     monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow now raises ImportError
     messages: list[str] = []

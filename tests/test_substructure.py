@@ -142,8 +142,8 @@ def test_bordered_matrix_equals_its_definition(name: str) -> None:
 def _shell_qp(sets: list[str], path: str = "examples/paper_panel.toml"):
     from pathlib import Path
 
-    from shellcontact.analysis import discretize
-    from shellcontact.case import load_case
+    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.problem.case import load_case
 
     case = load_case(Path(__file__).resolve().parents[1] / path, sets)
     d = discretize(case)
@@ -200,7 +200,7 @@ def test_a_coarser_level_picks_the_border_when_the_overlap_rule_would_border_too
     from pathlib import Path
 
     import shellcontact
-    from shellcontact.case import load_case
+    from shellcontact.problem.case import load_case
     from shellcontact.solvers import screening
 
     path = Path(__file__).resolve().parents[1] / "examples/paper_panel.toml"

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from shellcontact import cli
-from shellcontact.transaction import DirectoryLock
+from shellcontact.outputs.transaction import DirectoryLock
 
 ROOT = Path(__file__).resolve().parents[1]
 ROOF = str(ROOT / "examples" / "scordelis_lo.toml")
@@ -137,7 +137,7 @@ def test_killed_run_into_new_directory_leaves_no_result(tmp_path: Path) -> None:
 def test_interrupt_just_after_the_staging_directory_appears_leaves_nothing(tmp_path: Path, monkeypatch) -> None:
     """A signal that lands right after the staging directory's mkdir (the interruption tests send SIGINT the
     moment it appears) must still find it discarded: the Staging object exists before its directory does."""
-    from shellcontact.transaction import replace_dir
+    from shellcontact.outputs.transaction import replace_dir
 
     real_mkdir = Path.mkdir
 
@@ -158,7 +158,7 @@ def test_interrupt_just_after_the_staging_directory_appears_leaves_nothing(tmp_p
 def test_remove_stale_puts_back_a_result_left_aside(tmp_path: Path, previous: Path) -> None:
     """Where directories cannot be exchanged atomically the old result is renamed aside first; a run cut
     between the two renames leaves it there, and the next run puts it back before anything else."""
-    from shellcontact.transaction import remove_stale
+    from shellcontact.outputs.transaction import remove_stale
 
     out, before = copy_of(previous, tmp_path)
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
@@ -274,7 +274,7 @@ def test_result_write_refuses_non_empty_directory_unless_overwrite(tmp_path: Pat
 
 def test_interrupted_api_write_keeps_previous_result(tmp_path: Path, previous: Path, monkeypatch) -> None:
     import shellcontact as sc
-    from shellcontact import outputs
+    from shellcontact.outputs import run as outputs
 
     out, before = copy_of(previous, tmp_path)
     result = sc.solve(sc.load_case(ROOF, ["mesh.nx=4", "mesh.nphi=4"]))
@@ -291,14 +291,14 @@ def test_interrupted_api_write_keeps_previous_result(tmp_path: Path, previous: P
 def test_convergence_is_a_transaction(tmp_path: Path, monkeypatch) -> None:
     import shellcontact as sc
     from shellcontact.errors import InputError
-    from shellcontact.studies import convergence
+    from shellcontact.studies.runner import convergence
 
     case = sc.load_case(ROOF, ["mesh.nx=2", "mesh.nphi=2"])
     convergence(case, 2, tmp_path / "cv", figures=False)
     before = snapshot(tmp_path / "cv")
     with pytest.raises(InputError, match="not empty"):
         convergence(case, 2, tmp_path / "cv", figures=False)
-    from shellcontact import studies
+    from shellcontact.studies import runner as studies
 
     monkeypatch.setattr(studies, "write_csv", lambda *a: (_ for _ in ()).throw(KeyboardInterrupt()))
     with pytest.raises(KeyboardInterrupt):
@@ -310,7 +310,7 @@ def test_replace_without_atomic_exchange_and_in_the_working_directory(tmp_path: 
     """Where directories cannot be swapped in one step (no renameat2), and where the target is the working
     directory (which must stay where it is), --force still replaces the run files and keeps the user's."""
     import shellcontact as sc
-    from shellcontact import transaction
+    from shellcontact.outputs import transaction
 
     thin = sc.solve(sc.load_case(ROOF, ["mesh.nx=4", "mesh.nphi=4"]))
     thick = sc.solve(sc.load_case(ROOF, ["mesh.nx=4", "mesh.nphi=4", "shell.thickness=0.3"]))

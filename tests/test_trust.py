@@ -17,8 +17,8 @@ import pytest
 from inprocess import run_cli
 
 import shellcontact as sc
-from shellcontact import studies
-from shellcontact.case import read_case_dict
+from shellcontact.studies import runner as studies
+from shellcontact.problem.case import read_case_dict
 from shellcontact.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -132,7 +132,7 @@ def test_sys_exit_in_user_code_is_an_error_by_its_key(beside) -> None:
 
 
 def test_python_api_needs_consent_for_strings_not_for_callables(beside) -> None:
-    from shellcontact.user_functions import CodeConsent
+    from shellcontact.inputs.user_functions import CodeConsent
 
     case, marker = beside
     with pytest.raises(InputError) as exc:
@@ -148,7 +148,7 @@ def test_python_api_needs_consent_for_strings_not_for_callables(beside) -> None:
 def test_a_dask_task_imports_only_what_the_study_was_allowed(beside, monkeypatch) -> None:
     """``_solve_points`` is what a worker runs: without the study's consent it imports nothing, even a module
     on its Python path; with it, the module beside the case."""
-    from shellcontact.user_functions import CodeConsent
+    from shellcontact.inputs.user_functions import CodeConsent
 
     case, marker = beside
     monkeypatch.syspath_prepend(str(case.parent))  # a worker started there would find it

@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 
 from shellcontact import units
-from shellcontact.analysis import solve
-from shellcontact.case import case_from_dict, load_case, read_case_dict
+from shellcontact.analysis.pipeline import solve
+from shellcontact.problem.case import case_from_dict, load_case, read_case_dict
 from shellcontact.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-from shellcontact.analysis import mesh_lines
-from shellcontact.contact import contact_zone
-from shellcontact.mesh import build_mesh
-from shellcontact.punches import place_punches
-from shellcontact.zone_points import nearest_point_class
+from shellcontact.analysis.pipeline import mesh_lines
+from shellcontact.contact.operator import contact_zone
+from shellcontact.shell.mesh import build_mesh
+from shellcontact.contact.punches import place_punches
+from shellcontact.contact.zone_points import nearest_point_class
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

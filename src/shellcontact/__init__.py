@@ -17,27 +17,27 @@ from .errors import InputError, ShellContactError, SolverError
 from .lazy import lazy_attributes
 
 if TYPE_CHECKING:
-    from .accuracy import estimate, refine_to
-    from .analysis import Result, solve
-    from .case import Case, case_from_dict, load_case
-    from .geometry import Shell
-    from .studies import convergence, study, sweep
+    from .studies.accuracy import estimate, refine_to
+    from .analysis.pipeline import Result, solve
+    from .problem.case import Case, case_from_dict, load_case
+    from .shell.geometry import Shell
+    from .studies.runner import convergence, study, sweep
 
 __version__ = "0.1.0"
 
 # public name -> the submodule defining it, imported by __getattr__ on first access
 _LAZY = {
-    "Result": "analysis",
-    "solve": "analysis",
-    "Case": "case",
-    "case_from_dict": "case",
-    "load_case": "case",
-    "Shell": "geometry",
-    "convergence": "studies",
-    "estimate": "accuracy",
-    "refine_to": "accuracy",
-    "study": "studies",
-    "sweep": "studies",
+    "Result": "analysis.pipeline",
+    "solve": "analysis.pipeline",
+    "Case": "problem.case",
+    "case_from_dict": "problem.case",
+    "load_case": "problem.case",
+    "Shell": "shell.geometry",
+    "convergence": "studies.runner",
+    "estimate": "studies.accuracy",
+    "refine_to": "studies.accuracy",
+    "study": "studies.runner",
+    "sweep": "studies.runner",
 }
 
 __all__ = [

@@ -50,8 +50,8 @@ def _sets(args: argparse.Namespace) -> list[str]:
 
 
 def _load(args: argparse.Namespace):
-    from .case import load_case
-    from .user_functions import consent_for
+    from .problem.case import load_case
+    from .inputs.user_functions import consent_for
 
     sets = _sets(args)
     consent_for(args.allow_code, args.allow_module, args.case, "--allow-module")  # names checked, by the flag
@@ -62,7 +62,7 @@ def _load(args: argparse.Namespace):
 
 def _output(args: argparse.Namespace, suffix: str) -> Path:
     """-o DIR, or <case name><suffix> beside the working directory."""
-    from .files import expand_user
+    from .outputs.files import expand_user
 
     if args.output is None:
         return Path(f"{Path(args.case).stem}{suffix}")
@@ -155,10 +155,10 @@ def _closing(n_warnings: int) -> str:
 
 # -- commands ----------------------------------------------------------------------------------------------
 def cmd_run(args: argparse.Namespace, con: Console) -> int:
-    from .accuracy import describe, run_mode
-    from .analysis import solve
-    from .outputs import RUN_FILES, write_run_files
-    from .transaction import replace_dir
+    from .studies.accuracy import describe, run_mode
+    from .analysis.pipeline import solve
+    from .outputs.run import RUN_FILES, write_run_files
+    from .outputs.transaction import replace_dir
 
     case, sets = _load(args)
     _check_profiles(args, case.shell)
@@ -226,7 +226,7 @@ def _workers(args: argparse.Namespace, default: int | None) -> int | None:
     if args.serial:
         return 0
     if args.workers is not None:
-        from .engine import max_workers
+        from .studies.engine import max_workers
 
         if not 0 <= args.workers <= max_workers():
             raise InputError("--workers", f"must be >= 0 (0: in this process) and at most {max_workers()} (four "
@@ -236,10 +236,10 @@ def _workers(args: argparse.Namespace, default: int | None) -> int | None:
 
 
 def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
-    from .studies import parse_values, sweep, sweep_table
+    from .studies.runner import parse_values, sweep, sweep_table
 
     values = parse_values(args.values, args.max_memory)
-    from .engine import max_workers
+    from .studies.engine import max_workers
 
     if not 1 <= args.jobs <= max_workers():
         raise InputError("--jobs", f"must be >= 1 and at most {max_workers()} (four processes per core), "
@@ -258,8 +258,8 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_study(args: argparse.Namespace, con: Console) -> int:
-    from .sampling import parse_spec, read_points, sample
-    from .studies import study, study_table
+    from .studies.sampling import parse_spec, read_points, sample
+    from .studies.runner import study, study_table
 
     if args.points and args.param:
         raise InputError("--points", "give either a table of points or -p KEY=SPEC, not both")
@@ -286,7 +286,7 @@ def cmd_study(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_convergence(args: argparse.Namespace, con: Console) -> int:
-    from .studies import convergence, convergence_table
+    from .studies.runner import convergence, convergence_table
 
     case, _ = _load(args)
     out = _output(args, "-convergence")
@@ -299,7 +299,7 @@ def cmd_convergence(args: argparse.Namespace, con: Console) -> int:
 
 def cmd_info(args: argparse.Namespace, con: Console) -> int:
     from .linalg import BACKENDS, available_backends, default_backend
-    from .report import versions
+    from .outputs.report import versions
 
     v = versions()
     con.print(f"shellcontact {__version__}")
@@ -504,7 +504,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _quiet_exit() -> None:
     """Interrupted: Dask's unfinished tasks are not reported (the process ends now)."""
     if "distributed" in sys.modules:
-        from .engine import silence_dask
+        from .studies.engine import silence_dask
 
         silence_dask()
 

@@ -13,12 +13,12 @@ import time
 from importlib import resources
 from pathlib import Path
 
-from .analysis import Result, solve
-from .case import load_case
-from .files import atomic_write_text, write_json
-from .outputs import write_run_files
-from .tables import split_markdown
-from .transaction import replace_dir
+from .analysis.pipeline import Result, solve
+from .problem.case import load_case
+from .outputs.files import atomic_write_text, write_json
+from .outputs.run import write_run_files
+from .outputs.tables import split_markdown
+from .outputs.transaction import replace_dir
 from .units import bracket, label
 
 CASE_FILE = "paper_panel.toml"

@@ -68,7 +68,7 @@ def _panel_dict(punch: dict, nphi: int, refine: int) -> dict:
 
 def roller_case(refine: int = 0, indentation: float = 2e-3, force: float | None = None, solver=None, loads=None):
     """The roller case (module docstring) as a Case; ``force`` switches to force control."""
-    from .case import case_from_dict
+    from .problem.case import case_from_dict
 
     punch = {
         "shape": "cylinder",
@@ -91,7 +91,7 @@ def roller_case(refine: int = 0, indentation: float = 2e-3, force: float | None 
 
 def sphere_case(n: int = 8, refine: int = 0, indentation: float | None = None):
     """The paper's panel (cases/paper_panel.toml) on an n × n mesh (optionally another indentation)."""
-    from .case import case_from_dict
+    from .problem.case import case_from_dict
     from .demo import demo_case_path
 
     with open(demo_case_path(), "rb") as f:
@@ -117,7 +117,7 @@ class _Runs:
         self._cache: dict = {}
 
     def get(self, key: str, method: str = "active-set"):
-        from .analysis import solve
+        from .analysis.pipeline import solve
 
         if (key, method) not in self._cache:
             case = roller_case() if key == "roller" else sphere_case()
@@ -126,7 +126,7 @@ class _Runs:
 
 
 def check_uniqueness(runs: _Runs) -> list[Check]:
-    from .analysis import solve
+    from .analysis.pipeline import solve
 
     out = []
     for key in ("roller", "sphere"):
@@ -155,8 +155,8 @@ def check_uniqueness(runs: _Runs) -> list[Check]:
 def check_coercivity(runs: _Runs) -> list[Check]:
     import scipy.sparse.linalg as spla
 
-    from . import model
-    from .geometry import rigid_motion
+    from .shell import model
+    from .shell.geometry import rigid_motion
 
     res = runs.get("sphere")
     A_r = res.discretization.Ar
@@ -189,7 +189,7 @@ def check_coercivity(runs: _Runs) -> list[Check]:
 
 
 def check_penalty(runs: _Runs) -> list[Check]:
-    from .analysis import default_penalty, solve
+    from .analysis.pipeline import default_penalty, solve
 
     ref = runs.get("roller")
     eps0 = default_penalty(ref.case)
@@ -252,8 +252,8 @@ def check_saddle(runs: _Runs) -> list[Check]:
 
 
 def check_balance(runs: _Runs) -> list[Check]:
-    from .analysis import solve
-    from .geometry import rigid_motion
+    from .analysis.pipeline import solve
+    from .shell.geometry import rigid_motion
 
     q = 2.0e5
     res = solve(roller_case(loads={"normal": q}))
@@ -301,7 +301,7 @@ def check_balance(runs: _Runs) -> list[Check]:
 
 
 def check_h_convergence(runs: _Runs) -> list[Check]:
-    from .analysis import solve
+    from .analysis.pipeline import solve
 
     levels = [solve(roller_case(refine=r, solver={"nested": True})) for r in range(4)]
     fine = levels[-1].solution
@@ -328,8 +328,8 @@ def check_h_convergence(runs: _Runs) -> list[Check]:
 
 
 def check_concentration(runs: _Runs) -> list[Check]:
-    from .analysis import solve
-    from .case import case_from_dict
+    from .analysis.pipeline import solve
+    from .problem.case import case_from_dict
 
     flat = {
         "shape": "plane",

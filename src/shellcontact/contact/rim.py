@@ -1,0 +1,490 @@
+"""The decomposition of each punch's contact force: line force along the zone's rim, interior pressure, line load.
+
+For a Kirchhoff–Love shell the contact multiplier is a measure (MODEL.md §8, docs/theory.md): a pressure inside
+the contact zone, line forces along its boundary and point forces where a zone shrinks to a point. The nodal
+forces Λᵢ|∇Zᵢ| converge to it only weakly, so a nodal force over a nodal weight does not converge; sums of them
+over regions of fixed physical size do, and these are what this module reports (summary ``contact.<k>.rim``).
+
+1. The zone's outline: the level line Π = ``gap_tolerance`` of the linearised gap (contact.linearised_gap,
+   MODEL.md §5), sampled on a regular grid over the zone's extent (``contact.contact_zone``) and closed along the
+   candidate zone's edges. It converges with the displacement field, but it lies OUTSIDE the contact by a
+   distance that converges to a finite value (the gap grows like the squared distance from the contact:
+   about 10 mm on the paper's panel), not by a fraction of h.
+2. The rim (where the line force is): along each outline, in arc-length bins of about two element widths, the
+   carrying points nearest to that bin; the rim's band are those within ``RIM_WIDTH`` element widths (across
+   the line) of the bin's shallowest carrying point, and the rim passes through the force-weighted centroid of
+   the band (the outline moved inward by that offset, smoothed along the line). The rim's ``force`` is the sum
+   over the bands; it includes the interior pressure over a band of width O(h), which vanishes under refinement.
+   ``length`` is the rim's length, ``mean_line_force`` = force / length; the line force along the rim
+   (``samples``, ``peak_line_force``) is the band's forces smoothed with a hat kernel two element lengths wide
+   along the line (the vertex and midpoint forces of a uniform load average out), per unit length of the rim.
+   Outline segments along the shell's own edges (a symmetry plane, the shell's end) carry no rim: points nearest
+   them are interior and they add no length; two stretches of the outline running opposite ways that the
+   offset puts onto one line (the sides of a sliver of zone along a rim) count once in the length.
+3. The interior: ``interior_force`` = total normal force − rim force over ``interior_area`` (the zone's area
+   inside the rim) gives ``mean_interior_pressure``.
+4. A line contact (per outline line; ``kind`` = "line" when every carrying line is one: a plate on a pipe): the
+   outline is a thin strip round the line, at least eight times longer than wide, with the force on its middle
+   line. Then its whole force is a line load: its length is the strip's long side (of the rectangle with the
+   strip's perimeter and enclosed area), and the samples run along the line's direction (the forces' principal
+   axis). ``per_line`` gives each line's kind, length, force and mean line force.
+Lengths are measured on the middle surface (x, s = aφ).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
+from .interior import interior_split
+from .point_forces import describe, point_force_clusters
+from .punches import Punch
+from ..shell.spaces import ShellSpace
+
+SAMPLES = (33, 257)  # grid points along each side of a zone's sampling box: 4 per element, within these
+PER_ELEMENT = 4
+MARGIN = 0.15  # the box extends the zone's extent by this fraction on each side (within the candidate zone)
+MAX_BINS = 72  # line-force bins per rim line
+RIM_WIDTH = 3.0  # the rim's band: this many element widths (across the rim) from its shallowest point
+LINE_CONTACT = 0.7  # a thin zone whose force sits this deep (× half its width) or deeper is a line contact
+OFFSET_WINDOW = 6.0  # the rim's offset from the outline: a hat this many element widths either side along the line
+
+
+def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: ContactOperator, Lam: np.ndarray,
+                   U: np.ndarray, delta: np.ndarray | None, zones: Sequence[dict]
+                   ) -> tuple[list[dict | None], list[list[np.ndarray]]]:
+    """Per punch (None where it does not touch): ``kind`` ("area" or "line"), ``length`` of the rim (or of the
+    line), its ``force``, the ``interior_force``, ``interior_area`` and ``mean_interior_pressure``,
+    ``peak_line_force`` and ``mean_line_force`` (= force / length), the number of outline ``lines`` and
+    ``samples`` [{x, phi (degrees), line_force}] along the rim (module docstring); and per punch the rim's
+    polylines (n, 2) in (x, s = aφ) where the line force acts, for the figures."""
+    forced = [k for k, p in enumerate(punches) if p.mode == "force"]
+    normal = np.linalg.norm(operator.grad, axis=0) * np.asarray(Lam, float)
+    out: list[dict | None] = []
+    polylines: list[list[np.ndarray]] = []
+    for k, (p, zone) in enumerate(zip(punches, zones)):
+        rows = operator.rows(k)
+        step = float(np.asarray(delta, float)[forced.index(k)]) if p.mode == "force" and delta is not None else None
+        lines = _rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"]) if "x" in zone else []
+        polylines.append([])
+        force = normal[rows].copy()
+        if not np.any(force > 0.0):
+            out.append(None)
+            continue
+        points = _point_forces(space, lines, operator.x[rows], operator.phi[rows], force)
+        if not lines or not np.any(force > 0.0):  # no outline, or all of the force at points
+            out.append(_only_points(points, force, zone["area"]) if points else None)
+            continue
+        entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, operator.weights[rows],
+                                 zone["area"])
+        polylines[-1] = rim
+        out.append({**entry, "point_force": sum(q["force"] for q in points), "point_forces": points})
+    return out, polylines
+
+
+def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
+                  force: np.ndarray) -> list[dict]:
+    """The point forces among the carrying rows (``point_forces``), whose forces are set to 0 in ``force``
+    (in place) so that the line/interior split leaves them out."""
+    carrying = np.flatnonzero(force > 0.0)
+    pts = np.stack([x[carrying], space.mesh.shell.radius * phi[carrying]], axis=1)
+    width = np.maximum(_width_across(space, pts, np.tile([1.0, 0.0], (len(pts), 1))),
+                       _width_across(space, pts, np.tile([0.0, 1.0], (len(pts), 1))))
+    sh = space.mesh.shell
+    box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
+    clusters = point_force_clusters(pts, force[carrying], width, lines, space.mesh.p, space.mesh.t, box)
+    points = describe(space.mesh.shell, pts, force[carrying], clusters)
+    for g in clusters:
+        force[carrying[g]] = 0.0
+    return points
+
+
+def _only_points(points: list[dict], rest: np.ndarray, zone_area: float) -> dict:
+    """The decomposition of a punch whose force is all at points (any rest, without an outline to split it by,
+    is counted as interior force)."""
+    interior = float(rest.sum())
+    return {"kind": "point", "length": 0.0, "force": 0.0, "interior_force": interior, "peak_line_force": 0.0,
+            "mean_line_force": 0.0, "lines": 0, "interior_area": zone_area,
+            "mean_interior_pressure": interior / zone_area if zone_area > 0 else 0.0, "per_line": [],
+            "samples": [], "point_force": sum(q["force"] for q in points), "point_forces": points}
+
+
+def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float
+               ) -> list[np.ndarray]:
+    """Polylines (n, 2) in (x, s) of the level Π = tol, closed along the candidate zone's edges."""
+    import contourpy
+
+    sh = space.mesh.shell
+    a = sh.radius
+    phi0, phi1 = np.radians(zone["phi"])
+    interval = next(((lo, hi) for lo, hi in p.zone.phi if lo - 1e-12 <= phi0 and phi1 <= hi + 1e-12),
+                    p.zone.phi[0])
+    x0, x1 = zone["x"]
+    mx, mp = MARGIN * max(x1 - x0, 1e-9 * a), MARGIN * max(phi1 - phi0, 1e-9)
+    bx = (max(x0 - mx, p.zone.x[0]), min(x1 + mx, p.zone.x[1]))
+    bp = (max(phi0 - mp, interval[0]), min(phi1 + mp, interval[1]))
+    nx, nphi = _sample_counts(space, bx, bp)
+    xs, ps = np.linspace(*bx, nx), np.linspace(*bp, nphi)
+    X, P = np.meshgrid(xs, ps)
+    ops = space.point_operators(X.ravel(), a * P.ravel(), GAP_QUANTITIES)
+    fields = {q: op @ U for q, op in ops.items()}
+    f = (linearised_gap(sh, p, X.ravel(), P.ravel(), fields, step) - tol).reshape(X.shape)
+    # off a finite body (punch extent) nothing touches either
+    off = ~facing_body(space, p, X.ravel(), a * P.ravel()).reshape(X.shape)
+    f[off] = float(np.max(np.abs(f))) + 1.0
+    # outside the candidate zone nothing touches: a border of "not touching" closes the rim along the zone's
+    # edges — except across the seam of a zone that runs all the way round a full cylinder
+    around = sh.full and interval[1] - interval[0] >= sh.beta - sh.alpha - 1e-9
+    pad_x = 1e-9 * (bx[1] - bx[0])
+    pad_p = 0.0 if around else 1e-9 * (bp[1] - bp[0])
+    big = float(np.max(np.abs(f))) + 1.0
+    xs = np.concatenate([[bx[0] - pad_x], xs, [bx[1] + pad_x]])
+    f = np.pad(f, ((0, 0), (1, 1)), constant_values=big)
+    if pad_p:
+        ps = np.concatenate([[bp[0] - pad_p], ps, [bp[1] + pad_p]])
+        f = np.pad(f, ((1, 1), (0, 0)), constant_values=big)
+    lines = contourpy.contour_generator(xs, a * ps, f).lines(0.0)
+    return [np.asarray(line, float) for line in lines if len(line) >= 2]
+
+
+def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, float]) -> tuple[int, int]:
+    """PER_ELEMENT samples per element along x and φ in the box (median element extents there), within SAMPLES:
+    the P5 gap is smooth inside an element, so the sampled level line follows the mesh's resolution."""
+    m = space.mesh
+    a = m.shell.radius
+    corners = m.p[:, m.t]  # (2, 3, nelements)
+    c = corners.mean(axis=1)
+    inside = (c[0] >= bx[0]) & (c[0] <= bx[1]) & (c[1] >= a * bp[0]) & (c[1] <= a * bp[1])
+    if not inside.any():
+        return SAMPLES[0], SAMPLES[0]
+    ext = np.ptp(corners[:, :, inside], axis=1)
+    counts = []
+    for width, h in ((bx[1] - bx[0], np.median(ext[0])), (a * (bp[1] - bp[0]), np.median(ext[1]))):
+        n = math.ceil(PER_ELEMENT * width / h) + 1 if h > 0 else SAMPLES[0]
+        counts.append(int(min(max(n, SAMPLES[0]), SAMPLES[1])))
+    return counts[0], counts[1]
+
+
+def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
+                force: np.ndarray, weight: np.ndarray, zone_area: float) -> dict:
+    """The decomposition of one punch's normal force (module docstring): a line contact's ``line_load``, or the
+    rim's line force and the interior (``interior.interior_split``); ``weight``: the rows' ωᵢ."""
+    a = space.mesh.shell.radius
+    total = float(force.sum())
+    carrying = force > 0.0
+    pts = np.stack([x[carrying], a * phi[carrying]], axis=1)
+    f = force[carrying]
+    seg0 = np.concatenate([ln[:-1] for ln in lines])
+    seg1 = np.concatenate([ln[1:] for ln in lines])
+    seg_line = np.concatenate([np.full(len(ln) - 1, i) for i, ln in enumerate(lines)])
+    seg_len = np.linalg.norm(seg1 - seg0, axis=1)
+    start = np.concatenate([np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ln, axis=0), axis=1))[:-1]])
+                            for ln in lines])  # arc length at each segment's start, along its line
+    line_len = np.array([float(np.linalg.norm(np.diff(ln, axis=0), axis=1).sum()) for ln in lines])
+    # outline segments along the shell's own edges (x_min, x_max; φ edges of a panel) close the outline where the
+    # contact continues beyond the model (a symmetry plane) or the shell ends: no rim there
+    sh = space.mesh.shell
+    tol = 1e-6 * max(sh.length, sh.s_max - sh.s_min)
+    mid = 0.5 * (seg0 + seg1)
+    closure = (np.abs(mid[:, 0] - sh.x_min) <= tol) | (np.abs(mid[:, 0] - sh.x_max) <= tol)
+    if not sh.full:
+        closure |= (np.abs(mid[:, 1] - sh.s_min) <= tol) | (np.abs(mid[:, 1] - sh.s_max) <= tol)
+    j, t, depth = _nearest_segment(pts, seg0, seg1)
+    if closure.any() and not closure.all():  # on a tie (a point on a corner) the segment that can carry a rim
+        keep = np.flatnonzero(~closure)
+        j2, t2, d2 = _nearest_segment(pts, seg0[keep], seg1[keep])
+        better = closure[j] & (d2 <= depth + tol)
+        j[better], t[better], depth[better] = keep[j2[better]], t2[better], d2[better]
+    # the line's normal at each point's nearest point: the segment's, or at a vertex the mean of its two segments'
+    # (a point nearest a corner has two nearest segments; this makes the choice not matter)
+    v_n = [_vertex_normals(ln, bool(np.allclose(ln[0], ln[-1]))) for ln in lines]
+    n_start = np.concatenate([n[:-1] for n in v_n])
+    n_end = np.concatenate([n[1:] for n in v_n])
+    seg_dir = (seg1 - seg0) / np.maximum(seg_len, 1e-300)[:, None]
+    normal = np.stack([-seg_dir[j, 1], seg_dir[j, 0]], axis=1)
+    normal = np.where((t <= 0.0)[:, None], n_start[j], np.where((t >= 1.0)[:, None], n_end[j], normal))
+    tangent = np.stack([normal[:, 1], -normal[:, 0]], axis=1)
+    across = _width_across(space, pts, normal)
+    along = _width_across(space, pts, tangent)
+    # a line contact: an outline that is a strip at least eight times longer than wide whose force sits on its
+    # middle line (not outside it, as where the tolerance is below the gap's scatter between constraint points)
+    line_parts: list[tuple[dict, list[np.ndarray]]] = []
+    is_line = np.zeros(len(lines), bool)
+    for i, ln in enumerate(lines):
+        mine = np.flatnonzero(seg_line[j] == i)
+        enclosed = _enclosed_area([ln])
+        if mine.size == 0 or not enclosed:
+            continue
+        thickness = 2.0 * enclosed / line_len[i]
+        mean_depth = float(np.sum(f[mine] * depth[mine]) / max(f[mine].sum(), 1e-300))
+        if LINE_CONTACT <= mean_depth / (0.5 * thickness) <= 1.0 / LINE_CONTACT and line_len[i] >= 16.0 * thickness:
+            is_line[i] = True
+            line_parts.append(_line_contact(space, pts[mine], f[mine], enclosed, float(line_len[i]),
+                                            float(f[mine].sum())))
+    where = start[j] + t * seg_len[j]  # arc length along the nearest level line
+    # signed offset of each point from its line (the sign of the line's left normal): the rim's offset below is a
+    # mean of these, so it does not depend on which way round or from where a line was traced (mirror images
+    # of a problem give mirror images of the rim)
+    side = np.einsum("nk,nk->n", pts - (seg0[j] + t[:, None] * (seg1 - seg0)[j]), normal)
+    size = float(np.median(np.maximum(across, along)))  # the window along the line: about one element
+    band = np.zeros(len(f), bool)
+    geometry = []
+    for i, ln in enumerate(lines):
+        closed = bool(np.allclose(ln[0], ln[-1]))
+        mine = np.flatnonzero((seg_line[j] == i) & ~closure[j])
+        if mine.size == 0 or is_line[i]:
+            geometry.append((ln, None, closed))
+            continue
+        period = line_len[i] if closed else None
+        # the rim starts at the shallowest carrying point near each point along the line (within ± 2 elements);
+        # the level line lies outside the contact by a distance that converges, not by a fraction of h
+        big = mine[f[mine] >= 1e-3 * f[mine].max()]
+        first = _window_min(where[mine], where[big], depth[big], 2.0 * size, period)
+        typical = float(np.median(first[np.isfinite(first)])) if np.isfinite(first).any() else 0.0
+        rim_here = first <= 2.0 * typical + 2.0 * size  # a point whose shallowest neighbour lies deep: no rim there
+        band[mine] = rim_here & (depth[mine] <= first + RIM_WIDTH * across[mine])
+        geometry.append((ln, mine, closed))
+    # the band also holds the interior pressure over its width, O(h): it vanishes under refinement
+    rim_force = float(f[band].sum())
+    rim_lines, samples, length, inner_area, peak, per_line, rim_keep, rim_outlines = [], [], 0.0, 0.0, 0.0, [], [], []
+    for i, (ln, mine, closed) in enumerate(geometry):
+        if mine is None:
+            continue
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ln, axis=0), axis=1))])
+        period = line_len[i] if closed else None
+        sel = mine[band[mine]] if mine is not None else np.zeros(0, int)
+        # the rim: each point of the level line moved along its normal to the force-weighted mean offset of the
+        # band within ± OFFSET_WINDOW elements (hat weights: the centroids scatter by a fraction of h)
+        n_v = _vertex_normals(ln, closed)
+        num = _hat_sum(arc, where[sel], f[sel] * side[sel], OFFSET_WINDOW * size, period)
+        den = _hat_sum(arc, where[sel], f[sel], OFFSET_WINDOW * size, period)
+        has = den > 0
+        if not has.any():
+            continue
+        offset = np.where(has, num / np.where(has, den, 1.0), 0.0)
+        if not has.all():  # no band nearby: the neighbours' offset
+            offset = np.interp(arc, arc[has], offset[has], period=period)
+        rim = ln + offset[:, None] * n_v
+        if closed:
+            rim[-1] = rim[0]
+        rim_seg = np.linalg.norm(np.diff(rim, axis=0), axis=1)
+        rim_arc = np.concatenate([[0.0], np.cumsum(rim_seg)])
+        rim_lines.append(rim)
+        rim_keep.append(~closure[seg_line == i])  # the closing segments carry no line force
+        rim_outlines.append(ln)
+        per_line.append({"kind": "area", "length": 0.0, "force": float(f[sel].sum()), "mean_line_force": 0.0})
+        inner_area += float(np.sum(0.5 * (np.abs(offset[1:]) + np.abs(offset[:-1])) * np.diff(arc)))
+        # the line force: the band's forces smoothed along the line with a hat two element lengths wide (the vertex
+        # and midpoint forces of a uniform load average out), per unit length of the rim (d rim_arc / d arc)
+        half = 2.0 * float(np.median(along[sel]))
+        stretch = np.gradient(rim_arc, arc, edge_order=1) if len(arc) > 2 else np.ones_like(arc)
+        at_points = _hat_sum(where[sel], where[sel], f[sel], half, period) / half
+        at_points /= np.maximum(np.interp(where[sel], arc, stretch, period=period), 1e-12)
+        peak = max(peak, float(at_points.max(initial=0.0)))
+        nb = int(min(MAX_BINS, max(3, math.floor(line_len[i] / half))))
+        centres = (np.arange(nb) + 0.5) * line_len[i] / nb
+        density = _hat_sum(centres, where[sel], f[sel], half, period) / half
+        density /= np.maximum(np.interp(centres, arc, stretch, period=period), 1e-12)
+        on_rim = _points_at(rim, np.interp(centres, arc, rim_arc))
+        samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": float(v)}
+                    for c, v in zip(on_rim, density)]
+    # two stretches of the outline that the offset moves onto one line (the sides of a sliver of the zone along a
+    # rim) are one rim: count its length once
+    for entry, own in zip(per_line, _union_lengths(rim_lines, rim_outlines, rim_keep, 0.1 * float(np.median(across)))):
+        entry["length"] = own
+        entry["mean_line_force"] = entry["force"] / own if own > 0 else 0.0
+        length += own
+    for part, polyline in line_parts:  # line contacts: their whole force is a line load
+        rim_force += part["force"]
+        length += part["length"]
+        inner_area += part["area"]
+        peak = max(peak, part["peak_line_force"])
+        samples += part["samples"]
+        rim_lines += polyline
+        per_line.append({"kind": "line", "length": part["length"], "force": part["force"],
+                         "mean_line_force": part["mean_line_force"]})
+    interior = max(total - rim_force, 0.0)
+    interior_area = max(zone_area - inner_area, 0.0)
+    rest = ~band & ~is_line[seg_line[j]]  # the interior's carrying rows: not on the rim's band or a line load
+    idle = np.stack([x[~carrying], a * phi[~carrying]], axis=1)
+    split = interior_split(pts[rest], f[rest], weight[carrying][rest], np.maximum(across, along)[rest], idle,
+                           lambda p, d: _width_across(space, p, d))
+    out = {"kind": "line" if line_parts and not _geometry_has_force(geometry) else "area", "length": length,
+           "force": rim_force, "interior_force": interior,
+           "peak_line_force": peak, "mean_line_force": rim_force / length if length > 0 else 0.0,
+           "lines": len(per_line), "interior_area": interior_area,
+           "mean_interior_pressure": interior / interior_area if interior_area > 0 else 0.0, **split,
+           "per_line": per_line, "samples": samples}
+    return out, rim_lines
+
+
+def _geometry_has_force(geometry: list) -> bool:
+    """Whether an outline that is not a line contact holds carrying points."""
+    return any(mine is not None and mine.size for _, mine, _ in geometry)
+
+
+def _window_min(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: float,
+                period: float | None) -> np.ndarray:
+    """At each arc position ``at``: the least of ``values`` at positions ``where`` within ± half (periodic)."""
+    order = np.argsort(where)
+    w, v = where[order], values[order]
+    if period is not None:
+        w, v = np.concatenate([w - period, w, w + period]), np.concatenate([v, v, v])
+    lo = np.searchsorted(w, at - half, side="left")
+    hi = np.searchsorted(w, at + half, side="right")
+    out = np.full(len(at), np.inf)
+    for k, (a, b) in enumerate(zip(lo, hi)):
+        if b > a:
+            out[k] = v[a:b].min()
+    return out
+
+
+def _hat_sum(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: float,
+             period: float | None, chunk: int = 512) -> np.ndarray:
+    """Σ values · max(0, 1 − |at − where| / half) at each ``at`` (distances periodic with ``period``)."""
+    out = np.zeros(len(at))
+    for lo in range(0, len(at), chunk):
+        d = np.abs(at[lo:lo + chunk, None] - where[None, :])
+        if period is not None:
+            d = np.minimum(d, period - d)
+        out[lo:lo + chunk] = np.clip(1.0 - d / half, 0.0, None) @ values
+    return out
+
+
+def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: float, perimeter: float,
+                  total: float) -> tuple[dict, list[np.ndarray]]:
+    """A zone that is a thin strip round the force (a plate on a pipe): the line load along its middle line,
+    whose length follows from the strip's perimeter P and area A as the long side of a P, A rectangle."""
+    length = 0.5 * (0.5 * perimeter + math.sqrt(max(0.25 * perimeter ** 2 - 4.0 * zone_area, 0.0)))
+    c = np.average(pts, axis=0, weights=f)
+    e = np.array([1.0, 0.0])
+    if len(pts) >= 2:
+        cov = np.cov((pts - c).T, aweights=f)
+        if np.all(np.isfinite(cov)):
+            e = np.linalg.eigh(cov)[1][:, -1]  # the line's direction (principal axis of the forces)
+    s = (pts - c) @ e
+    a = space.mesh.shell.radius
+    half = 2.0 * float(np.median(_width_across(space, pts, np.tile(e, (len(pts), 1)))))  # two element lengths
+    lo, hi = float(s.min()), float(s.max())
+    if not hi - lo > 0.0 or not half > 0.0:  # the forces at one point: one sample, the mean
+        sample = [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": total / length}]
+        return ({"length": length, "force": total, "area": zone_area, "peak_line_force": total / length,
+                 "mean_line_force": total / length, "samples": sample}, [np.stack([c, c])])
+    nb = int(min(MAX_BINS, max(1, round((hi - lo) / half))))
+    centres = lo + (np.arange(nb) + 0.5) * (hi - lo) / nb
+    d = np.abs(centres[:, None] - s[None, :])
+    kernel = np.clip(1.0 - d / half, 0.0, None) / half
+    # near the ends the kernel reaches past the line: divide by its part on the line
+    inside = np.clip(np.minimum(centres - lo, hi - centres) / half, 0.0, 1.0)
+    mass = 0.5 + inside - 0.5 * inside ** 2
+    density = kernel @ f / mass
+    line = c[None, :] + centres[:, None] * e[None, :]
+    samples = [{"x": float(p[0]), "phi": float(math.degrees(p[1] / a)), "line_force": float(v)}
+               for p, v in zip(line, density)]
+    out = {"length": length, "force": total, "area": zone_area, "peak_line_force": float(density.max(initial=0.0)),
+           "mean_line_force": total / length, "samples": samples}
+    return out, [np.stack([c + lo * e, c + hi * e])]
+
+
+def _nearest_segment(pts: np.ndarray, seg0: np.ndarray, seg1: np.ndarray,
+                     chunk: int = 1024) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each point: its nearest segment, the projection parameter t ∈ [0, 1] on it and the distance."""
+    d = seg1 - seg0
+    len2 = np.maximum(np.einsum("sk,sk->s", d, d), 1e-300)
+    j, t, dist = (np.zeros(len(pts), int), np.zeros(len(pts)), np.zeros(len(pts)))
+    for lo in range(0, len(pts), chunk):
+        q = pts[lo:lo + chunk, None, :] - seg0[None]
+        tt = np.clip(np.einsum("nsk,sk->ns", q, d) / len2, 0.0, 1.0)
+        dd = np.linalg.norm(q - tt[..., None] * d[None], axis=2)
+        jj = np.argmin(dd, axis=1)
+        rows = np.arange(len(jj))
+        j[lo:lo + chunk], t[lo:lo + chunk], dist[lo:lo + chunk] = jj, tt[rows, jj], dd[rows, jj]
+    return j, t, dist
+
+
+def _width_across(space: ShellSpace, pts: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """The width (in x, s) of the elements at each point, measured along ``normal`` (unit, (n, 2)): the mesh's
+    resolution across the rim, also on the long thin elements of a mesh graded in one direction. A point on a
+    vertex or an edge touches several elements: the largest width of those in the four diagonal directions from
+    it, so that mirror images of a point (on a mirror-symmetric mesh) get the same width."""
+    m = space.mesh
+    sh = m.shell
+    eps = 1e-7 * sh.radius
+    widths = np.zeros(len(pts))
+    for dx, ds in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+        x = np.clip(pts[:, 0] + dx * eps, sh.x_min, sh.x_max)
+        s = np.clip(pts[:, 1] + ds * eps, sh.s_min, sh.s_max)
+        corners = m.p[:, m.t[:, space.locate(x, s)]]  # (2, 3, n)
+        widths = np.maximum(widths, np.ptp(np.einsum("kcn,nk->cn", corners, normal), axis=0))
+    return widths
+
+
+def _points_at(line: np.ndarray, arc: np.ndarray) -> np.ndarray:
+    """Points of a polyline at the given arc lengths."""
+    cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
+    return np.stack([np.interp(arc, cum, line[:, 0]), np.interp(arc, cum, line[:, 1])], axis=1)
+
+
+def _vertex_normals(line: np.ndarray, closed: bool) -> np.ndarray:
+    """Unit left normals at a polyline's points: the mean of the two segments' at each inner point (the same
+    whichever way round the line is traced), of the one segment at an open line's ends."""
+    d = np.diff(line, axis=0)
+    d = d / np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
+    seg_n = np.stack([-d[:, 1], d[:, 0]], axis=1)
+    before = np.vstack([seg_n[-1:] if closed else seg_n[:1], seg_n])
+    after = np.vstack([seg_n, seg_n[:1] if closed else seg_n[-1:]])
+    n = before + after
+    return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+
+
+def _enclosed_area(lines: list[np.ndarray]) -> float | None:
+    """The area inside closed level lines (shoelace, signed so that holes subtract); None if one is open."""
+    total = 0.0
+    for ln in lines:
+        if not np.allclose(ln[0], ln[-1]):
+            return None
+        total += 0.5 * float(np.sum(ln[:-1, 0] * ln[1:, 1] - ln[1:, 0] * ln[:-1, 1]))
+    return abs(total)
+
+
+def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep: list[np.ndarray],
+                   delta: float) -> list[float]:
+    """The length of each polyline's kept segments, where two stretches within ``delta`` of each other running
+    opposite ways, from stretches of the outline within 2 delta too, count once: the two sides of a sliver of
+    the zone along a rim, which the offset puts onto one line (not a rim's two arms near a sharp end)."""
+    from scipy.spatial import cKDTree
+
+    pts, ds, owner, direction, source, source_arc = [], [], [], [], [], []
+    for i, (pl, ol, kept) in enumerate(zip(polylines, outlines, keep)):
+        seg = np.diff(pl, axis=0)
+        lengths = np.linalg.norm(seg, axis=1)
+        o_len = np.linalg.norm(np.diff(ol, axis=0), axis=1)
+        o_start = np.concatenate([[0.0], np.cumsum(o_len)[:-1]])
+        for k in np.flatnonzero(kept & (lengths > 0)):
+            n = max(1, math.ceil(lengths[k] / (0.5 * delta)))
+            u = (np.arange(n) + 0.5) / n
+            pts.append(pl[k] + u[:, None] * seg[k])
+            source.append(ol[k] + u[:, None] * (ol[k + 1] - ol[k]))
+            source_arc.append(o_start[k] + u * o_len[k])
+            ds.append(np.full(n, lengths[k] / n))
+            owner.append(np.full(n, i))
+            direction.append(np.tile(seg[k] / lengths[k], (n, 1)))
+    out = np.zeros(len(polylines))
+    if not pts:
+        return [float(v) for v in out]
+    P, dl, who, d = np.vstack(pts), np.concatenate(ds), np.concatenate(owner), np.vstack(direction)
+    src, arc = np.vstack(source), np.concatenate(source_arc)
+    pairs = cKDTree(P).query_pairs(delta, output_type="ndarray")
+    duplicate = np.zeros(len(P), bool)
+    if len(pairs):
+        p, q = pairs[:, 0], pairs[:, 1]
+        apart = np.linalg.norm(src[p] - src[q], axis=1)
+        # the two sides of a sliver: close across, far along the outline (not a local fold of the offset line)
+        sides = (apart <= 2 * delta) & ((who[p] != who[q]) | (np.abs(arc[p] - arc[q]) > 2 * apart + delta))
+        opposite = (np.einsum("nk,nk->n", d[p], d[q]) < -0.5) & sides
+        duplicate[np.maximum(p, q)[opposite]] = True
+    np.add.at(out, who[~duplicate], dl[~duplicate])
+    return [float(v) for v in out]

@@ -1,0 +1,3 @@
+"""Results on disk: the solution's post-processing (results, fields), the run directory,
+report, VTU/NPZ writers, figures, atomic files and transactions.
+"""

@@ -1,0 +1,2 @@
+"""Figures, one module per kind; matplotlib is imported only here.
+"""

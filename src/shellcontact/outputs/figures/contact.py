@@ -1,0 +1,246 @@
+"""The contact figures of a run: pressure.png and pressure_profiles.png (split from plots, which draws the rest).
+
+For a Kirchhoff shell the contact force is a measure (docs/theory.md §9): line forces along the zone's rim (or a
+line load), a pressure inside, point forces where a zone is a point. The figures draw what converges as what it
+is — the line force as a line along the rim, coloured by its value in N/m (``contact.<k>.rim.samples``), with the
+rim's mean or the line load in the title, the same numbers as summary.json, and each point force as a marker
+labelled with its force — and show the nodal pressure Λ/ω, which does not converge at a line
+force, labelled as mesh-dependent. Several punches: one panel each, each with its own colour scales.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from matplotlib.collections import LineCollection
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
+
+from ..fields import contact_vertex_fields
+from .common import _contact_outline, _finish, _fmt, _levels, _map_axes, _q, _unit, _vertex_map
+from ...units import with_unit
+
+
+def _contact_box(fields: dict[str, np.ndarray], x: np.ndarray, phi: np.ndarray, hx: float, hphi: float):
+    """The candidate zone, narrowed to the contact region (padded by its size or 4 cells) when smaller."""
+    status = fields.get("contact_status")
+    cand = status >= 0 if status is not None else np.ones(x.size, bool)
+    if not np.any(cand):
+        cand = np.ones(x.size, bool)
+    xr, pr = [float(x[cand].min()), float(x[cand].max())], [float(phi[cand].min()), float(phi[cand].max())]
+    act = status == 1 if status is not None else np.zeros(x.size, bool)
+    if np.any(act):
+        for r, c, h in ((xr, x[act], hx), (pr, phi[act], hphi)):
+            pad = max(float(np.ptp(c)), 4.0 * h)
+            r[0], r[1] = max(r[0], float(c.min()) - pad), min(r[1], float(c.max()) + pad)
+    px, pp = 0.03 * (xr[1] - xr[0] or 1.0), 0.03 * (pr[1] - pr[0] or 1.0)
+    return (xr[0] - px, xr[1] + px), (pr[0] - pp, pr[1] + pp)
+
+
+def _punch_status(result, nv: int) -> list[np.ndarray] | None:
+    """Per punch, the vertex status of its own rows (1 active, 0 candidate, −1 not its candidate), or None."""
+    c = getattr(result, "contact", None)
+    op = getattr(c, "operator", None)
+    if op is None or getattr(c, "active", None) is None or len(op.punches) < 2:
+        return None
+    out = []
+    for k in range(len(op.punches)):
+        rows = op.rows(k)
+        rows = rows[op.vertex[rows] >= 0]
+        status = np.full(nv, -1)
+        status[op.vertex[rows]] = 0
+        status[op.vertex[rows][np.asarray(c.active, bool)[rows]]] = 1
+        if op.twins is not None:
+            slave, master = op.twins
+            status[slave] = status[master]
+        out.append(status)
+    return out
+
+
+def _rims(result) -> list[dict | None]:
+    """Per punch, the summary's ``rim`` entry (None where a punch has none)."""
+    c = getattr(result, "contact", None)
+    try:
+        return list(getattr(c, "rim", None) or [])
+    except Exception:  # a contact object without the decomposition
+        return []
+
+
+def _rim_headline(result, rim: dict | None) -> str:
+    """The converging number of a punch's contact force, as summary.json has it."""
+    if not rim:
+        return ""
+    points = rim.get("point_forces") or []
+    if rim.get("kind") == "point":
+        return ", ".join(f"point force {_q(result, pf['force'], 'force')}" for pf in points[:3])
+    name = "line load" if rim.get("kind") == "line" else "rim line force (mean)"
+    return f"{name} {_q(result, rim['mean_line_force'], 'force/length')}"
+
+
+def _draw_line_force(ax, fig, result, rim: dict | None, lines: list[np.ndarray]) -> bool:
+    """The rim's polylines coloured by the line force (N/m) of the nearest sample, with its own colour bar."""
+    if not rim or not rim.get("samples") or not lines:
+        return False
+    a = result.solution.shell.radius
+    sx = np.array([s["x"] for s in rim["samples"]])
+    ss = np.radians([s["phi"] for s in rim["samples"]]) * a
+    q = np.array([s["line_force"] for s in rim["samples"]])
+    segments, values = [], []
+    for ln in lines:
+        pts = np.stack([ln[:, 0], np.degrees(ln[:, 1] / a)], axis=1)
+        mid = 0.5 * (ln[1:] + ln[:-1])
+        nearest = np.argmin((mid[:, 0, None] - sx[None]) ** 2 + (mid[:, 1, None] - ss[None]) ** 2, axis=1)
+        segments += [pts[i:i + 2] for i in range(len(pts) - 1)]
+        values += list(q[nearest])
+    lc = LineCollection(segments, cmap="viridis", linewidths=3.5)
+    lc.set_array(np.asarray(values))
+    lc.set_clim(0.0, max(float(np.max(values)), 1e-300))
+    ax.add_collection(lc)
+    fig.colorbar(lc, ax=ax, label=f"line force{_unit(result, 'force/length')}", ticks=MaxNLocator(6), pad=0.02)
+    ax.plot([], [], "-", color=lc.cmap(0.6), lw=3.5, label="contact boundary")  # as on the other maps
+    ax.legend(loc="upper right", fontsize=8)
+    return True
+
+
+def _draw_point_forces(ax, result, rim: dict | None) -> None:
+    """Each point force (``rim.point_forces``) as a marker labelled with its force."""
+    points = (rim or {}).get("point_forces") or []
+    for j, pf in enumerate(points):
+        ax.plot(pf["x"], pf["phi"], "r*", ms=13, mec="k", mew=0.6, label="point force" if j == 0 else None)
+        ax.annotate(_q(result, pf["force"], "force"), (pf["x"], pf["phi"]), xytext=(8, 8),
+                    textcoords="offset points", fontsize=8, color="darkred",
+                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "darkred", "alpha": 0.85})
+    if points:
+        ax.legend(loc="upper right", fontsize=8)
+
+
+def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
+    """The contact force per punch (None without contact): the line force along the rim (or the line load) as a
+    coloured line, over the nodal pressure Λ/ω (mesh-dependent) of the candidate zone; one panel per punch,
+    each zoomed to its own zone with its own colour scales."""
+    fields = contact_vertex_fields(result)
+    p = fields.get("contact_pressure")
+    if p is None:
+        return None
+    sol = result.solution
+    tri = _vertex_map(result)
+    x, phi = tri.x, tri.y
+    p = np.asarray(p, float)
+    per_punch = _punch_status(result, x.size)
+    statuses = per_punch or [fields.get("contact_status")]
+    rims = _rims(result)
+    rim_lines = getattr(getattr(result, "contact", None), "rim_lines", None) or []
+    n = len(statuses)
+    fig = Figure(figsize=(7.6 if n == 1 else 6.2 * n, 4.8), layout="constrained")
+    h = sol.space.mesh.h() / math.sqrt(2.0)
+    for k, status in enumerate(statuses):
+        ax = fig.add_subplot(1, n, k + 1)
+        own = {**fields, "contact_status": status} if status is not None else fields
+        mine = p[np.asarray(status) >= 0] if per_punch else p
+        rim = rims[k] if k < len(rims) else None
+        if not (rim and rim.get("kind") == "line"):  # a line contact has no pressure: no beads of Λ/ω
+            cs = ax.tricontourf(tri, p, levels=_levels(mine if mine.size else p, 0.0), cmap="Greys")
+            fig.colorbar(cs, ax=ax, label=f"nodal pressure Λ/ω, mesh-dependent{_unit(result, 'pressure')}",
+                         ticks=MaxNLocator(6), pad=0.02)
+        lines = rim_lines[k] if k < len(rim_lines) else []
+        if not _draw_line_force(ax, fig, result, rim, lines) and _contact_outline(ax, result, own):
+            if not (rim and rim.get("kind") == "point"):  # a point force's vertices: its marker below
+                act = np.asarray(status) == 1
+                ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
+            ax.legend(loc="upper right", fontsize=8)
+        _draw_point_forces(ax, result, rim)
+        xr, pr = _contact_box(own, x, phi, h, math.degrees(h / sol.shell.radius))
+        ax.set_xlim(*xr)
+        ax.set_ylim(*pr)
+        peak = float(mine.max()) if mine.size else 0.0
+        who = f"punch {k}: " if per_punch else ""
+        headline = _rim_headline(result, rim) or "contact pressure at the vertices"
+        ax.set_title(f"{who}{headline}\nnodal peak Λ/ω {_q(result, peak, 'pressure')} (mesh-dependent)", fontsize=9)
+        _map_axes(ax, result)
+    return _finish(fig, path)
+
+
+def pressure_lines(
+    result, x: float | None = None, phi: float | None = None
+) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
+    """Nodal pressures along the mesh line x = x* (against φ°) and the line φ = φ* (against x),
+    within the candidate zone. x* and φ* (degrees) default to the peak-pressure vertex; given
+    values are moved to the nearest mesh line (pressures live at vertices)."""
+    fields = contact_vertex_fields(result)
+    p = fields.get("contact_pressure")
+    if p is None or not np.any(np.asarray(p) > 0):
+        return None
+    p = np.asarray(p, float)
+    sol = result.solution
+    xv, s = sol.space.mesh.p
+    phv = np.degrees(s / sol.shell.radius)
+    i = int(np.argmax(p))
+    x0 = xv[i] if x is None else xv[np.argmin(np.abs(xv - x))]
+    p0 = phv[i] if phi is None else phv[np.argmin(np.abs(phv - phi))]
+    tol_x = 1e-9 * max(sol.shell.length, 1.0)
+    tol_p = 1e-9 * max(float(np.ptp(phv)), 1.0)
+    status = fields.get("contact_status")
+    zone = np.asarray(status) >= 0 if status is not None else np.ones(xv.size, bool)  # the candidate zone
+    on_x = np.nonzero((np.abs(xv - x0) <= tol_x) & zone)[0]
+    on_p = np.nonzero((np.abs(phv - p0) <= tol_p) & zone)[0]
+    on_x, on_p = on_x[np.argsort(phv[on_x])], on_p[np.argsort(xv[on_p])]
+    return {
+        f"x = {_fmt(x0)}": (phv[on_x], p[on_x]),
+        f"φ = {_fmt(p0)}°": (xv[on_p], p[on_p]),
+    }
+
+
+def _broken(c: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The profile with NaN where nothing touches between two points (both zero) or across a jump between
+    candidate zones (a spacing above 3× the median): no line is drawn across a gap."""
+    if len(c) < 2:
+        return c, p
+    step = np.diff(c)
+    cut = ((p[:-1] <= 0.0) & (p[1:] <= 0.0)) | (step > 3.0 * max(float(np.median(step)), 1e-300))
+    k = np.flatnonzero(cut) + 1
+    return np.insert(c.astype(float), k, np.nan), np.insert(p.astype(float), k, np.nan)
+
+
+def plot_pressure_profiles(
+    result, path: str | Path | None = None, x: float | None = None, phi: float | None = None
+) -> Figure | None:
+    """The line force along each punch's rim (or its line load) against the arc length, then the nodal pressure
+    (mesh-dependent) along the mesh lines x = x* and φ = φ* (degrees; default through the peak), broken where
+    nothing touches; None without contact pressure."""
+    lines = pressure_lines(result, x, phi)
+    if lines is None:
+        return None
+    rims = [(k, r) for k, r in enumerate(_rims(result)) if r and r.get("samples")]
+    if rims and all(r.get("kind") == "line" for _, r in rims):
+        lines = {}  # line contacts only: the nodal Λ/ω would zig-zag between vertex and midpoint weights
+    n = len(lines) + (1 if rims else 0)
+    fig = Figure(figsize=(5.0 * n, 4), layout="constrained")
+    if rims:
+        ax = fig.add_subplot(1, n, 1)
+        a = result.solution.shell.radius
+        for k, rim in rims:
+            pts = np.array([[s["x"], a * math.radians(s["phi"])] for s in rim["samples"]])
+            arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+            q = np.array([s["line_force"] for s in rim["samples"]])
+            if rim.get("kind") != "line" and rim.get("lines") == 1 and len(q) > 2:  # round to the first sample
+                arc, q = np.append(arc, arc[-1] + np.linalg.norm(pts[0] - pts[-1])), np.append(q, q[0])
+            line = ax.plot(arc, q, "-", label=f"punch {k}: {_rim_headline(result, rim)}")[0]
+            ax.axhline(rim["mean_line_force"], color=line.get_color(), ls="--", lw=0.8)
+        ax.set_xlabel(f"along the rim or line{_unit(result, 'length')}")
+        ax.set_ylabel(f"line force{_unit(result, 'force/length')}")
+        ax.set_ylim(0.0, 1.15 * max(max(s["line_force"] for s in r["samples"]) for _, r in rims))
+        ax.set_title("line force along the rim or line (dashed: its mean)", fontsize=10)
+        ax.legend(fontsize=7)
+        ax.grid(True, alpha=0.3)
+    for k, (label, (c, p)) in enumerate(lines.items()):
+        ax = fig.add_subplot(1, n, n - len(lines) + k + 1)
+        ax.plot(*_broken(c, p), "o-", ms=3)
+        ax.set_xlabel("φ [deg]" if label.startswith("x") else f"x{_unit(result, 'length')}")
+        ax.set_ylabel(f"nodal pressure Λ/ω, mesh-dependent{_unit(result, 'pressure')}")
+        ax.xaxis.set_major_locator(MaxNLocator(6))
+        ax.set_title(f"along {with_unit(label, 'length', result.case.units) if label.startswith('x') else label}",
+                     fontsize=10)
+        ax.grid(True, alpha=0.3)
+    return _finish(fig, path)
