@@ -158,7 +158,7 @@ def target(value, goal, unit, peer, **extra) -> dict:
     return {"value": value, "goal": goal, "unit": unit, "peer": peer, **extra}
 
 
-# --- the discrete contact QP of a case, as shellcontact.analysis.pipeline.solve builds it ---------------------------------
+# --- the discrete contact QP of a case, as shellcontact.analysis.pipeline.solve builds it -----------------------------
 
 
 def export_qp_parts(case, contact_points: str | None = None):

@@ -627,7 +627,8 @@ def test_case_file_reference_is_generated_from_the_schema():
     from shellcontact.contact.punches import SHAPES
 
     text = (Path(__file__).resolve().parents[1] / "docs" / "case-file.md").read_text()
-    assert document(text) == text, "docs/case-file.md is stale: run python -m shellcontact.problem.case docs/case-file.md"
+    assert document(text) == text, \
+        "docs/case-file.md is stale: run python -m shellcontact.problem.case docs/case-file.md"
     for name, table in DOC_TABLES.items():
         assert f"<!-- keys: {name} -->" in text
         assert all(f"| `{k}` |" in text for k in table.names())

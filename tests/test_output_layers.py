@@ -1,7 +1,9 @@
-"""The output modules import one way: fields and files → transaction, writers, plots, report → outputs.
+"""The package's layers import one way, down docs/architecture.md's tree; inside outputs/: fields and files →
+transaction, writers, figures, report → run.
 
-Every import inside the package is read from the source (top-level and lazy ones in functions),
-so a circle or an upward import (a figure solving, a writer importing the CLI) fails here.
+Every import inside the package is read from the source (top-level and lazy ones in functions, relative
+and absolute), so a circle or an upward import (a figure solving, a writer importing the CLI, the shell
+model reading the case file) fails here.
 """
 
 from __future__ import annotations
@@ -13,61 +15,132 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "shellcontact"
 
-#: the package modules each output module may import (and nothing else of the package); ``results``
-#: (the solution's post-processing, below the output layer) only for its list of surfaces; ``units``
-#: (unit labels, a leaf that imports nothing of the package) for the labels of figures, tables and summary
+#: the layers from the top down: a module imports only modules of its own layer or of the layers below it
+LAYERS = (
+    {"__init__", "cli", "console", "demo", "verify"},  # the API's face and the commands
+    {"studies"},
+    {"analysis"},
+    {"outputs"},
+    {"problem"},
+    {"contact"},
+    {"shell"},
+    {"solvers"},
+    {"linalg"},
+    {"inputs"},
+    {"errors", "lazy", "units"},  # leaves every layer may use
+)
+
+#: the package modules each output module may import (and nothing else of the package); ``outputs.results``
+#: (the solution's post-processing, below the rest of the output layer) only for its list of surfaces;
+#: ``units`` (unit labels, a leaf that imports nothing of the package) for the labels of figures, tables
+#: and summary
 ALLOWED = {
-    "fields": {"results"},
-    "files": {"errors"},
-    "writers": {"fields", "files"},
-    "figure_common": {"fields", "files", "units"},
-    "contact_figures": {"fields", "figure_common", "units"},
-    # plots: results for the refined sampling the von Mises map shares with summary.json's maxima
-    "plots": {"fields", "figure_common", "contact_figures", "results", "units"},
-    "report": {"files", "units"},
-    "transaction": {"errors", "files"},
-    "outputs": {"fields", "files", "transaction", "writers", "plots", "report", "units"},
+    "outputs.fields": {"outputs.results"},
+    "outputs.files": {"errors"},
+    "outputs.writers": {"outputs.fields", "outputs.files"},
+    "outputs.figures.common": {"outputs.fields", "outputs.files", "units"},
+    "outputs.figures.contact": {"outputs.fields", "outputs.figures.common", "units"},
+    # figures: results for the refined sampling the von Mises map shares with summary.json's maxima
+    "outputs.figures.run": {"outputs.fields", "outputs.figures.common", "outputs.figures.contact",
+                            "outputs.results", "units"},
+    "outputs.report": {"outputs.files", "units"},
+    "outputs.transaction": {"errors", "outputs.files"},
+    "outputs.run": {"outputs.fields", "outputs.files", "outputs.transaction", "outputs.writers",
+                    "outputs.figures.run", "outputs.report", "units"},
 }
+
+#: the only modules that write a run directory
+OUTPUTS_IMPORTERS = {"analysis.pipeline", "cli", "demo"}
+
+
+def module_name(path: Path) -> str:
+    """``src/shellcontact/outputs/run.py`` → ``outputs.run``; a package's ``__init__.py`` → the package."""
+    parts = list(path.relative_to(PACKAGE).with_suffix("").parts)
+    if parts[-1] == "__init__" and len(parts) > 1:
+        parts.pop()
+    return ".".join(parts)
+
+
+def package_imports(path: Path, package: Path = PACKAGE) -> set[str]:
+    """Package modules imported anywhere in ``path`` (dotted, below ``shellcontact``; ``from .x import y``
+    gives ``x.y`` when ``x/y.py`` exists, else ``x``)."""
+    here = list(path.relative_to(package).parent.parts)
+    found: set[str] = set()
+
+    def add(parts: list[str], names: list[str]) -> None:
+        for name in names or [None]:
+            full = parts + [name] if name else parts
+            if full and ((package.joinpath(*full).with_suffix(".py")).exists() or (package.joinpath(*full)).is_dir()):
+                found.add(".".join(full))
+            else:  # a name defined in the module ``parts`` (``__version__`` from the package: its face)
+                found.add(".".join(parts) if parts else "__init__")
+
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.ImportFrom):
+            names = [a.name for a in node.names]
+            if node.level:
+                base = here[: len(here) - (node.level - 1)] if node.level > 1 else list(here)
+                add(base + (node.module.split(".") if node.module else []), names)
+            elif (node.module or "").split(".")[0] == "shellcontact":
+                add(node.module.split(".")[1:], names)
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.startswith("shellcontact."):
+                    add(a.name.split(".")[1:], [])
+    return found
+
+
+def layer(module: str) -> int:
+    top = module.split(".")[0]
+    return next(i for i, names in enumerate(LAYERS) if top in names)
+
+
+def modules() -> list[Path]:
+    return sorted(p for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts)
+
+
+def test_every_module_has_a_layer() -> None:
+    tops = {module_name(p).split(".")[0] for p in modules()}
+    assert tops <= set().union(*LAYERS), f"not in LAYERS: {sorted(tops - set().union(*LAYERS))}"
+
+
+@pytest.mark.parametrize("path", modules(), ids=lambda p: module_name(p))
+def test_imports_run_down_the_layers(path: Path) -> None:
+    me = module_name(path)
+    up = sorted(m for m in package_imports(path) if layer(m) < layer(me))
+    assert not up, f"{me} (layer {layer(me)}) imports {up} from above"
+
+
+def test_at_most_ten_modules_at_the_top() -> None:
+    assert len(list(PACKAGE.glob("*.py"))) <= 10
 
 
 def test_units_is_a_leaf() -> None:
     assert package_imports(PACKAGE / "units.py") == set()
 
-#: the only modules that write a run directory
-OUTPUTS_IMPORTERS = {"analysis", "cli", "demo"}
-
-
-def package_imports(path: Path) -> set[str]:
-    """Top-level package modules imported anywhere in ``path`` (``from .x.y import z`` → x)."""
-    found: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if isinstance(node, ast.ImportFrom):
-            if node.level == 1 and node.module:
-                found.add(node.module.split(".")[0])
-            elif node.level == 1:
-                found.update(alias.name for alias in node.names)  # from . import plots
-            elif node.level == 0 and (node.module or "").startswith("shellcontact."):
-                found.add(node.module.split(".")[1])
-        elif isinstance(node, ast.Import):
-            found.update(a.name.split(".")[1] for a in node.names if a.name.startswith("shellcontact."))
-    return found
-
 
 @pytest.mark.parametrize("module", sorted(ALLOWED))
 def test_output_module_imports_only_below_it(module: str) -> None:
-    imported = package_imports(PACKAGE / f"{module}.py")
+    imported = package_imports(PACKAGE.joinpath(*module.split(".")).with_suffix(".py"))
     assert imported <= ALLOWED[module], f"{module} imports {sorted(imported - ALLOWED[module])}"
 
 
 def test_only_the_top_writes_the_run_directory() -> None:
-    importers = {p.stem for p in PACKAGE.rglob("*.py") if "outputs" in package_imports(p)}
+    importers = {module_name(p) for p in modules() if "outputs.run" in package_imports(p)}
     assert importers <= OUTPUTS_IMPORTERS
 
 
 def test_reader_sees_lazy_and_absolute_imports(tmp_path: Path) -> None:
-    src = tmp_path / "m.py"
+    pkg = tmp_path / "shellcontact"
+    (pkg / "outputs" / "figures").mkdir(parents=True)
+    (pkg / "solvers").mkdir()
+    for f in ("cli.py", "errors.py", "outputs/files.py", "outputs/figures/run.py", "solvers/dual.py"):
+        (pkg / f).write_text("")
+    src = pkg / "outputs" / "m.py"
     src.write_text(
-        "from .files import x\nimport shellcontact.cli\n"
-        "def f():\n    from . import plots\n    from .solvers.dual import y\n    from shellcontact.problem.case import z\n"
+        "from .files import x\nimport shellcontact.cli as cli\n"
+        "def f():\n    from .figures import run as plots\n    from ..solvers.dual import y\n"
+        "    from shellcontact.problem.case import z\n    from .. import errors\n"
     )
-    assert package_imports(src) == {"files", "cli", "plots", "solvers", "case"}
+    assert package_imports(src, pkg) == {"outputs.files", "cli", "outputs.figures.run", "solvers.dual",
+                                         "problem.case", "errors"}

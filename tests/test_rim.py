@@ -1,4 +1,5 @@
-"""The contact force's decomposition (summary ``contact.rim``, shellcontact.contact.rim): converges, and equals closed forms.
+"""The contact force's decomposition (summary ``contact.rim``, shellcontact.contact.rim): converges, and equals
+closed forms.
 
 For a Kirchhoff shell the contact multiplier is a measure: a line force along the zone's boundary, a pressure
 inside, point forces where a zone is a point. The paper's panel (a sphere on a clamped panel) carries nearly all

@@ -50,7 +50,8 @@ for argv in [["--help"], ["--version"], *([c, "--help"] for c in commands)]:
 def test_overrides_does_not_import_case() -> None:
     """case.load_case uses overrides; the other direction would be an import circle."""
     r = subprocess.run(
-        [sys.executable, "-c", "import sys, shellcontact.inputs.overrides; print('shellcontact.problem.case' in sys.modules)"],
+        [sys.executable, "-c",
+         "import sys, shellcontact.inputs.overrides; print('shellcontact.problem.case' in sys.modules)"],
         capture_output=True, text=True, timeout=120,
     )
     assert r.returncode == 0, r.stderr

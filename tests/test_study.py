@@ -1,6 +1,6 @@
-"""Parameter studies on Dask (shellcontact.studies.runner.study, shellcontact.studies.engine): the same rows, bit for bit, in this
-process, on an embedded cluster and on a separate scheduler with two worker processes one of which is killed in
-the middle; resumed studies recompute nothing and write the same files; bad keys and values named.
+"""Parameter studies on Dask (shellcontact.studies.runner.study, shellcontact.studies.engine): the same rows, bit for
+bit, in this process, on an embedded cluster and on a separate scheduler with two worker processes one of which
+is killed in the middle; resumed studies recompute nothing and write the same files; bad keys and values named.
 
 Tiny meshes (the paper's panel and the Scordelis–Lo roof on 4 × 4 to 6 × 6 cells), a few points each.
 """
