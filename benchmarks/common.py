@@ -167,7 +167,7 @@ def export_qp_parts(case, contact_points: str | None = None):
     The operator gives the punch force of a multiplier vector (``operator.total_normal_force(Lambda)``);
     ``reduction.expand`` maps U_r to the full U.
     """
-    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.analysis.discretization import discretize
 
     d = discretize(case, contact_points or case.solver.contact_points)
     return d.qp(), d.operator, d.reduction, d.space

@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def main(sizes=(4, 8, 12)) -> None:
-    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.analysis.discretization import discretize
     from shellcontact.problem.case import load_case
 
     for n in sizes:

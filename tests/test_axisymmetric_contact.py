@@ -309,7 +309,7 @@ def test_active_set_hands_over_when_it_makes_no_progress():
     mesh.refine = 0 (605 rows) without revisiting a set: the rows on the wrong side hover between 36 and 100. The
     active set hands over to the dual once they stop falling (measured: at iteration 29, then 11 dual iterations)
     and gets the answer of the default settings; without the fallback it says it makes no progress."""
-    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.analysis.discretization import discretize
     from shellcontact.solvers import solve_active_set
 
     qp = discretize(case_from_dict(_wide_sleeve(0))).qp()

@@ -7,7 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from shellcontact.analysis.pipeline import case_mesh
+from shellcontact.analysis.discretization import case_mesh
+from shellcontact.contact.operator import contact_operator, penetration_outside
+from shellcontact.contact.punches import place_punches
+from shellcontact.errors import InputError
 from shellcontact.problem.case import case_from_dict
 from shellcontact.contact.operator import contact_operator, penetration_outside
 from shellcontact.errors import InputError

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-from shellcontact.analysis.pipeline import discretize
+from shellcontact.analysis.discretization import discretize
 from shellcontact.demo import demo_case_path
 
 

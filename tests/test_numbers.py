@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from shellcontact.analysis.pipeline import discretize, penalty_ratio, solve
-from shellcontact.problem.case import case_from_dict
+from shellcontact.analysis.discretization import discretize
+from shellcontact.analysis.pipeline import penalty_ratio, solve
 from shellcontact.cli import main
 from shellcontact.errors import InputError, SolverError
 from shellcontact.outputs.files import json_text

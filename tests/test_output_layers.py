@@ -50,7 +50,7 @@ ALLOWED = {
 }
 
 #: the only modules that write a run directory
-OUTPUTS_IMPORTERS = {"analysis.pipeline", "cli", "demo"}
+OUTPUTS_IMPORTERS = {"analysis.result", "cli", "demo"}
 
 
 def module_name(path: Path) -> str:

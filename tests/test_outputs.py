@@ -214,7 +214,7 @@ def test_contact_vertex_arrays_gather_operator_rows() -> None:
     """Row values of a real contact operator (paper's panel) gathered on the mesh vertices keep
     their sums: Σ contact_force = Σ Λ, Σ contact_force_vector = the punch resultant Σ Λ_i ∇Z_i."""
     from shellcontact import load_case
-    from shellcontact.analysis.pipeline import case_mesh
+    from shellcontact.analysis.discretization import case_mesh
     from shellcontact.contact.operator import contact_operator
     from shellcontact.outputs.fields import contact_vertex_arrays
     from shellcontact.contact.punches import place_punches

@@ -9,11 +9,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from shellcontact.analysis.pipeline import case_mesh
-from shellcontact.problem.case import case_from_dict
-from shellcontact.errors import InputError
-from shellcontact.shell.geometry import Shell
-from shellcontact.shell.material import Isotropic
+from shellcontact.analysis.discretization import case_mesh
 from shellcontact.contact.punches import (
     Cylinder,
     Ellipsoid,

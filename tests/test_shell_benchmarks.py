@@ -21,8 +21,7 @@ import pytest
 import scipy.sparse as sp
 
 import shellcontact as sc
-from shellcontact.shell import model
-from shellcontact.analysis.pipeline import case_mesh
+from shellcontact.analysis.discretization import case_mesh
 from shellcontact.errors import InputError
 from shellcontact.shell.geometry import Shell, rigid_motion
 from shellcontact.linalg import factorize

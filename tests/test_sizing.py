@@ -10,6 +10,11 @@ from pathlib import Path
 
 import pytest
 
+from shellcontact.analysis.discretization import discretize
+from shellcontact.analysis.pipeline import solve
+from shellcontact.cli import main
+from shellcontact.contact.punches import place_punches
+from shellcontact.errors import InputError
 from shellcontact.problem import sizing
 from shellcontact.analysis.pipeline import discretize, solve
 from shellcontact.problem.case import case_from_dict

@@ -142,7 +142,7 @@ def test_bordered_matrix_equals_its_definition(name: str) -> None:
 def _shell_qp(sets: list[str], path: str = "examples/paper_panel.toml"):
     from pathlib import Path
 
-    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.analysis.discretization import discretize
     from shellcontact.problem.case import load_case
 
     case = load_case(Path(__file__).resolve().parents[1] / path, sets)

@@ -17,8 +17,8 @@ from .errors import InputError, ShellContactError, SolverError
 from .lazy import lazy_attributes
 
 if TYPE_CHECKING:
-    from .studies.accuracy import estimate, refine_to
-    from .analysis.pipeline import Result, solve
+    from .analysis.pipeline import solve
+    from .analysis.result import Result
     from .problem.case import Case, case_from_dict, load_case
     from .shell.geometry import Shell
     from .studies.runner import convergence, study, sweep
@@ -27,7 +27,7 @@ __version__ = "0.1.0"
 
 # public name -> the submodule defining it, imported by __getattr__ on first access
 _LAZY = {
-    "Result": "analysis.pipeline",
+    "Result": "analysis.result",
     "solve": "analysis.pipeline",
     "Case": "problem.case",
     "case_from_dict": "problem.case",

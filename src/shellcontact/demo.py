@@ -13,8 +13,8 @@ import time
 from importlib import resources
 from pathlib import Path
 
-from .analysis.pipeline import Result, solve
-from .problem.case import load_case
+from .analysis.pipeline import solve
+from .analysis.result import Result
 from .outputs.files import atomic_write_text, write_json
 from .outputs.run import write_run_files
 from .outputs.tables import split_markdown

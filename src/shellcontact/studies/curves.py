@@ -59,17 +59,12 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from ..analysis.pipeline import (
-    Discretization,
-    Factorizer,
-    Result,
-    Timer,
-    contact_result,
-    discretize,
-    prepare_contact,
-    solve_discretized,
-    solver_callback,
-)
+from ..analysis.discretization import Discretization, Timer, discretize
+from ..analysis.pipeline import Factorizer, contact_result, prepare_contact, solve_discretized, solver_callback
+from ..analysis.result import Result
+from ..contact.operator import ContactOperator, contact_operator, point_flexibility
+from ..contact.punches import Punch, place_punches
+from ..errors import InputError, SolverError
 from ..inputs.arguments import expect_callable, expect_choice
 from ..problem.case import Case, expect_case
 from ..contact.operator import ContactOperator, contact_operator, point_flexibility
