@@ -12,7 +12,8 @@ import pytest
 import shellcontact
 from shellcontact import InputError
 from shellcontact.inputs.schema import Key
-from shellcontact.studies.runner import convergence, sweep
+from shellcontact.studies.refinement import convergence
+from shellcontact.studies.sweeps import sweep
 
 CASE = {
     "shell": {"radius": 25.0, "length": 25.0, "x_start": 0.0, "angle": [50.0, 90.0], "thickness": 0.25,

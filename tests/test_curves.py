@@ -162,7 +162,8 @@ def test_cases_of_different_families_are_refused():
 def test_a_punch_sweep_is_the_separate_solves_bit_for_bit():
     """sweep over a punch key solves its steps as one family (no warm start): each CSV row is the lone
     solve's, digit for digit, as a resumed sweep needs."""
-    from shellcontact.studies.runner import summary_row, sweep
+    from shellcontact.studies.rows import summary_row
+    from shellcontact.studies.sweeps import sweep
 
     raw = panel({"force": 1e4})
     values = [2e4, 6e4, 1.2e5]

@@ -24,7 +24,7 @@ from inprocess import run_cli
 
 import shellcontact as sc
 from shellcontact.errors import InputError
-from shellcontact.studies.runner import study
+from shellcontact.studies.parametric import study
 
 ROOT = Path(__file__).resolve().parents[1]
 PANEL = str(ROOT / "examples" / "paper_panel.toml")

@@ -1,6 +1,6 @@
-"""Parameter studies on Dask (shellcontact.studies.runner.study, shellcontact.studies.engine): the same rows, bit for
-bit, in this process, on an embedded cluster and on a separate scheduler with two worker processes one of which
-is killed in the middle; resumed studies recompute nothing and write the same files; bad keys and values named.
+"""Parameter studies on Dask (shellcontact.studies.parametric.study, shellcontact.studies.engine): the same rows,
+bit for bit, in this process, on an embedded cluster and on a separate scheduler with two worker processes one of
+which is killed in the middle; resumed studies recompute nothing and write the same files; bad keys and values named.
 
 Tiny meshes (the paper's panel and the Scordelis–Lo roof on 4 × 4 to 6 × 6 cells), a few points each.
 """
@@ -23,6 +23,10 @@ import shellcontact as sc
 import shellcontact.studies.curves as curves
 import shellcontact.studies.runner as studies
 from shellcontact.errors import InputError
+<<<<<<< HEAD
+=======
+from shellcontact.studies.parametric import study
+>>>>>>> ca4fad2 (Split studies/runner.py (1005 lines) along its seams, functions verbatim: studies/rows.py (summary rows, CSV, Parquet, column units, console tables; 136), sweeps.py (sweep; 135), parametric.py (study, sensitivity; 218), refinement.py (convergence; 178); runner.py keeps running the points and the study directory (366). Importers and the public names' _LAZY rewritten by layout_move.py's SPLITS table; test_transaction patches refinement.write_csv (convergence's), test_startup maps the public names to their new modules; docs/getting-started.md: two import lines the first layout_move.py broke (dotted pass over import lines in Markdown, fixed in the script))
 from shellcontact.studies.sampling import grid, latin_hypercube, parse_spec
 from shellcontact.studies.runner import study
 
@@ -221,7 +225,7 @@ def test_external_cluster_with_a_killed_worker_equals_serial(tmp_path: Path, das
 def test_parquet_keeps_types_and_writes_a_mixed_column_as_text(tmp_path: Path) -> None:
     import pyarrow.parquet as pq
 
-    from shellcontact.studies.runner import write_parquet
+    from shellcontact.studies.rows import write_parquet
 
     rows = [{"solver.method": "dual", "mesh.refine": 1, "energy": 1.5}, {"solver.method": 2, "mesh.refine": 2}]
     write_parquet(tmp_path / "t.parquet", rows, {"energy": "J"})
@@ -248,7 +252,7 @@ def test_without_pyarrow_the_parquet_file_is_skipped_with_a_message(tmp_path: Pa
                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     import logging
 
-    from shellcontact.studies.runner import write_parquet
+    from shellcontact.studies.rows import write_parquet
 
     monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow now raises ImportError
     messages: list[str] = []

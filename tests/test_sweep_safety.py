@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 import shellcontact as sc
-from shellcontact.studies.runner import sweep
+from shellcontact.studies.sweeps import sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 ROOF = str(ROOT / "examples" / "scordelis_lo.toml")

@@ -291,14 +291,14 @@ def test_interrupted_api_write_keeps_previous_result(tmp_path: Path, previous: P
 def test_convergence_is_a_transaction(tmp_path: Path, monkeypatch) -> None:
     import shellcontact as sc
     from shellcontact.errors import InputError
-    from shellcontact.studies.runner import convergence
+    from shellcontact.studies.refinement import convergence
 
     case = sc.load_case(ROOF, ["mesh.nx=2", "mesh.nphi=2"])
     convergence(case, 2, tmp_path / "cv", figures=False)
     before = snapshot(tmp_path / "cv")
     with pytest.raises(InputError, match="not empty"):
         convergence(case, 2, tmp_path / "cv", figures=False)
-    from shellcontact.studies import runner as studies
+    from shellcontact.studies import refinement as studies
 
     monkeypatch.setattr(studies, "write_csv", lambda *a: (_ for _ in ()).throw(KeyboardInterrupt()))
     with pytest.raises(KeyboardInterrupt):

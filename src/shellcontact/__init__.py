@@ -21,7 +21,10 @@ if TYPE_CHECKING:
     from .analysis.result import Result
     from .problem.case import Case, case_from_dict, load_case
     from .shell.geometry import Shell
-    from .studies.runner import convergence, study, sweep
+    from .studies.accuracy import estimate, refine_to
+    from .studies.parametric import study
+    from .studies.refinement import convergence
+    from .studies.sweeps import sweep
 
 __version__ = "0.1.0"
 
@@ -33,11 +36,11 @@ _LAZY = {
     "case_from_dict": "problem.case",
     "load_case": "problem.case",
     "Shell": "shell.geometry",
-    "convergence": "studies.runner",
+    "convergence": "studies.refinement",
     "estimate": "studies.accuracy",
     "refine_to": "studies.accuracy",
-    "study": "studies.runner",
-    "sweep": "studies.runner",
+    "study": "studies.parametric",
+    "sweep": "studies.sweeps",
 }
 
 __all__ = [

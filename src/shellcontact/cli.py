@@ -236,7 +236,7 @@ def _workers(args: argparse.Namespace, default: int | None) -> int | None:
 
 
 def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
-    from .studies.runner import parse_values, sweep, sweep_table
+    from .studies.sweeps import parse_values, sweep, sweep_table
 
     values = parse_values(args.values, args.max_memory)
     from .studies.engine import max_workers
@@ -258,6 +258,7 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_study(args: argparse.Namespace, con: Console) -> int:
+    from .studies.parametric import study, study_table
     from .studies.sampling import parse_spec, read_points, sample
     from .studies.runner import study, study_table
 
@@ -286,7 +287,7 @@ def cmd_study(args: argparse.Namespace, con: Console) -> int:
 
 
 def cmd_convergence(args: argparse.Namespace, con: Console) -> int:
-    from .studies.runner import convergence, convergence_table
+    from .studies.refinement import convergence, convergence_table
 
     case, _ = _load(args)
     out = _output(args, "-convergence")

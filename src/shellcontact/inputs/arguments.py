@@ -61,7 +61,7 @@ def expect_numbers(value: Any, function: str, name: str) -> list[float | int]:
     if hasattr(value, "tolist") and type(value).__module__ == "numpy":
         value = value.tolist()
     if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
-        hint = "; parse a CLI spec with shellcontact.studies.runner.parse_values" if isinstance(value, str) else ""
+        hint = "; parse a CLI spec with shellcontact.studies.sweeps.parse_values" if isinstance(value, str) else ""
         raise TypeError(f"{function}(): {name} must be a list of numbers, got {described(value)}{hint}")
     items = list(value)
     for item in items:
