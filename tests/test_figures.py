@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-from shellcontact.outputs.figures import run as plots
 from shellcontact.analysis.pipeline import solve
+from shellcontact.outputs import figures as plots
 from shellcontact.problem.case import case_from_dict, key_kind, load_case
 
 ROOT = Path(__file__).resolve().parents[1]

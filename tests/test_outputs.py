@@ -195,7 +195,7 @@ def test_contact_figures_and_report(tmp_path: Path, contact_result) -> None:
 
 
 def test_pressure_lines_pass_through_peak(contact_result) -> None:
-    from shellcontact.outputs.figures.run import pressure_lines
+    from shellcontact.outputs.figures.contact import pressure_lines
 
     result, cand, pressure = contact_result
     lines = pressure_lines(result)

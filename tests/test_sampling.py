@@ -12,10 +12,7 @@ import pytest
 from scipy import stats
 
 from shellcontact.errors import InputError
-<<<<<<< HEAD
-=======
 from shellcontact.studies.parametric import rank_correlation
->>>>>>> ca4fad2 (Split studies/runner.py (1005 lines) along its seams, functions verbatim: studies/rows.py (summary rows, CSV, Parquet, column units, console tables; 136), sweeps.py (sweep; 135), parametric.py (study, sensitivity; 218), refinement.py (convergence; 178); runner.py keeps running the points and the study directory (366). Importers and the public names' _LAZY rewritten by layout_move.py's SPLITS table; test_transaction patches refinement.write_csv (convergence's), test_startup maps the public names to their new modules; docs/getting-started.md: two import lines the first layout_move.py broke (dotted pass over import lines in Markdown, fixed in the script))
 from shellcontact.studies.sampling import grid, latin_hypercube, monte_carlo, parse_spec, read_points, sample
 from shellcontact.studies.runner import rank_correlation
 

@@ -18,14 +18,7 @@ from shellcontact.errors import InputError
 from shellcontact.problem import sizing
 from shellcontact.analysis.pipeline import discretize, solve
 from shellcontact.problem.case import case_from_dict
-<<<<<<< HEAD
-from shellcontact.cli import main
-from shellcontact.errors import InputError
-from shellcontact.contact.punches import place_punches
-from shellcontact.studies.runner import parse_values, sweep
-=======
 from shellcontact.studies.sweeps import parse_values, sweep
->>>>>>> ca4fad2 (Split studies/runner.py (1005 lines) along its seams, functions verbatim: studies/rows.py (summary rows, CSV, Parquet, column units, console tables; 136), sweeps.py (sweep; 135), parametric.py (study, sensitivity; 218), refinement.py (convergence; 178); runner.py keeps running the points and the study directory (366). Importers and the public names' _LAZY rewritten by layout_move.py's SPLITS table; test_transaction patches refinement.write_csv (convergence's), test_startup maps the public names to their new modules; docs/getting-started.md: two import lines the first layout_move.py broke (dotted pass over import lines in Markdown, fixed in the script))
 
 ROOT = Path(__file__).resolve().parent.parent
 PANEL = ROOT / "examples" / "paper_panel.toml"

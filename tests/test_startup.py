@@ -64,11 +64,7 @@ def test_public_names_resolve_to_their_definitions() -> None:
     from shellcontact.analysis import pipeline as analysis
     from shellcontact.problem import case
     from shellcontact.shell import geometry
-<<<<<<< HEAD
-    from shellcontact.studies import runner as studies
-=======
     from shellcontact.studies import accuracy, parametric, refinement, sweeps
->>>>>>> ca4fad2 (Split studies/runner.py (1005 lines) along its seams, functions verbatim: studies/rows.py (summary rows, CSV, Parquet, column units, console tables; 136), sweeps.py (sweep; 135), parametric.py (study, sensitivity; 218), refinement.py (convergence; 178); runner.py keeps running the points and the study directory (366). Importers and the public names' _LAZY rewritten by layout_move.py's SPLITS table; test_transaction patches refinement.write_csv (convergence's), test_startup maps the public names to their new modules; docs/getting-started.md: two import lines the first layout_move.py broke (dotted pass over import lines in Markdown, fixed in the script))
 
     where = {
         "Case": case, "case_from_dict": case, "load_case": case, "Result": analysis, "solve": analysis,

@@ -143,23 +143,23 @@ class Result:
         return vertex_fields(self)
 
     def plot_deflection(self, path=None):
-        from ..outputs.figures.run import plot_deflection
+        from ..outputs.figures.maps import plot_deflection
 
         return plot_deflection(self, path)
 
     def plot_deformed(self, path=None, scale=None):
-        from ..outputs.figures.run import plot_deformed
+        from ..outputs.figures.deformed import plot_deformed
 
         return plot_deformed(self, path, scale)
 
     def plot_pressure(self, path=None):
         """Contact-pressure map with the contact boundary (None without contact)."""
-        from ..outputs.figures.run import plot_pressure
+        from ..outputs.figures.contact import plot_pressure
 
         return plot_pressure(self, path)
 
     def plot_pressure_profiles(self, path=None, x=None, phi=None):
-        from ..outputs.figures.run import plot_pressure_profiles
+        from ..outputs.figures.contact import plot_pressure_profiles
 
         return plot_pressure_profiles(self, path, x, phi)
 

@@ -85,7 +85,7 @@ def write_run_files(
     written["results.npz"] = write_npz(result, directory / "results.npz", fields)
     pngs: dict[str, bytes] = {}
     if figures:
-        from .figures import run as plots  # matplotlib is imported only when figures are drawn
+        from . import figures as plots  # matplotlib is imported only when figures are drawn
 
         pngs = plots.run_figures(result, fields, profile_x, profile_phi)
         for name, data in pngs.items():

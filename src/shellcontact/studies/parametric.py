@@ -211,7 +211,7 @@ def _write_study_files(res: StudyResult, out: Path, figures: bool, source: str |
     pngs: dict[str, bytes] = {}
     responses = response_columns(res.rows, res.keys)
     if figures and responses:
-        from ..outputs.figures import run as plots
+        from ..outputs import figures as plots
 
         kinds = {c: key_kind(c) if c in res.keys else column_kind(c) for c in cols}
         numeric_keys = [k for k in res.keys if all(isinstance(r.get(k), (int, float)) for r in res.rows)]

@@ -153,7 +153,7 @@ def _convergence(case: Case, levels: int, out: Path | None, progress: Progress |
         )
         res.files["convergence.json"] = out / "convergence.json"
         if figures:
-            from ..outputs.figures import run as plots
+            from ..outputs import figures as plots
 
             png = plots.png_bytes(plots.plot_convergence(rows, system=case.units))
             atomic_write_bytes(out / "convergence.png", png)

@@ -138,7 +138,7 @@ def _write_sweep_files(res: SweepResult, out: Path, param: str, figures: bool, s
         names.append("sweep.parquet")
     pngs: dict[str, bytes] = {}
     if figures:
-        from ..outputs.figures import run as plots
+        from ..outputs import figures as plots
 
         kind = key_kind(param)
         pngs["sweep.png"] = plots.png_bytes(plots.plot_sweep(res.rows, param, system=system, param_kind=kind))

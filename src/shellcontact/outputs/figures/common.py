@@ -1,10 +1,11 @@
-"""What every figure module shares (plots, contact_figures): PNG writing, colour levels, axis labels with
+"""What every figure module shares: PNG writing, colour levels, axis labels with
 units, the map's coordinates and the contact outline drawn on a map. Imports no figure module, so the figure
 modules import it and not each other."""
 
 from __future__ import annotations
 
 import io as _io
+import math
 from pathlib import Path
 
 import numpy as np
@@ -103,3 +104,32 @@ def _contact_outline(ax, result, fields: dict[str, np.ndarray] | None = None, pu
     ax.tricontour(_vertex_map(result), inside, levels=[0.5], colors="c", linewidths=1.5)
     ax.plot([], [], "c-", label="contact boundary")
     return True
+
+
+def evaluation_grid(result, quantity: str = "w", max_points: int = 30000) -> tuple[Triangulation, np.ndarray]:
+    """``quantity`` on the vertices of a uniformly refined copy of the mesh (at most ~max_points),
+    evaluated with the finite-element basis (not linear interpolation), over (x, φ°)."""
+    sol = result.solution
+    r = _refined(result, max_points)
+    x, s = r.p
+    vals = sol.evaluate(x, s / sol.shell.radius, (quantity,))[quantity]
+    return Triangulation(x, np.degrees(s / sol.shell.radius), r.t.T), vals
+
+
+def exaggeration(result, fraction: float = 0.1) -> float:
+    """A round factor that makes the largest displacement ``fraction`` of min(radius, length)."""
+    sol = result.solution
+    x, s = sol.space.mesh.p
+    dmax = float(np.max(np.linalg.norm(sol.displacement(x, s / sol.shell.radius), axis=0)))
+    if not np.isfinite(dmax) or dmax <= 0:
+        return 1.0
+    raw = fraction * min(sol.shell.radius, sol.shell.length) / dmax
+    e = 10.0 ** math.floor(math.log10(raw))
+    return max(m * e for m in (1, 2, 5, 10) if m * e <= raw * (1 + 1e-12)) if raw >= 1 else 1.0
+
+
+def _refined(result, max_points: int):
+    """A uniformly refined copy of the mesh with at most ~max_points vertices (level ≤ 3)."""
+    from ..results import sampling_mesh
+
+    return sampling_mesh(result.solution.space.mesh.mesh, max_points)
