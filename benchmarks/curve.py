@@ -49,8 +49,8 @@ INDENTATION = 1e-2  # m: the demo's indentation (``--control indentation``)
 
 def curve_cases(n: int, points: int, control: str = "force", contact_points: str = "default"):
     """The curve's cases: forces P/k … P, or (``control="indentation"``) indentations d/k … d."""
-    from shellcontact.problem.case import case_from_dict, load_case
     from shellcontact.inputs.overrides import apply_overrides
+    from shellcontact.problem.case import case_from_dict, load_case
 
     sets = [f"mesh.nx={n}", f"mesh.nphi={n}"]
     base = load_case(CASE, sets + ([] if contact_points == "default" else [f"solver.contact_points={contact_points}"]))

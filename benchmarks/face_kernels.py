@@ -73,7 +73,7 @@ def force(refine: int, method: str) -> None:
 
 def border(refine: int, counts: list[int]) -> None:
     """CPU seconds of ``substructure.factorize_contact`` bordered by the deepest k rows of the overlap G."""
-    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.analysis.discretization import discretize
     from shellcontact.problem.case import load_case
     from shellcontact.solvers.substructure import factorize_contact
 

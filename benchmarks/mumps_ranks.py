@@ -33,7 +33,7 @@ def _cpu() -> float:
 
 def measure(refine: int, backend: str, compare: bool) -> dict:
     import shellcontact
-    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.analysis.discretization import discretize
     from shellcontact.linalg import factorize
     from shellcontact.linalg.mpi import mpi_started, peak_memory_bytes
 

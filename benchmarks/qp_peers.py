@@ -191,8 +191,8 @@ def run_lbfgsb(qp, tol: float):
 
 def worker(n: int, peer: str) -> dict:
     from shellcontact import linalg
-    from shellcontact.problem.case import load_case
     from shellcontact.linalg import factorize
+    from shellcontact.problem.case import load_case
     from shellcontact.solvers import kkt, kkt_residuals, solve_active_set
 
     case = load_case(CASE, [f"mesh.nx={n}", f"mesh.nphi={n}"])

@@ -48,8 +48,8 @@ def solve_fe():
     Returns (space, U, A, F, reduction); ``loads`` is a shellcontact.shell.loads.Loads or a full
     load vector.
     """
-    from shellcontact.shell import model
     from shellcontact.linalg import factorize
+    from shellcontact.shell import model
     from shellcontact.shell.loads import load_vector
     from shellcontact.shell.spaces import ShellSpace
     from shellcontact.shell.supports import Reduction

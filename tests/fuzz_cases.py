@@ -31,9 +31,9 @@ from typing import Any
 import numpy as np
 from hypothesis import strategies as st
 
-from shellcontact.problem.case import CASE
 from shellcontact.contact.punches import SHAPES
 from shellcontact.inputs.schema import REQUIRED, Key, Table
+from shellcontact.problem.case import CASE
 
 
 # -- user functions named by generated cases ---------------------------------------------------------------

@@ -21,8 +21,8 @@ from test_axisymmetric_pressure import _exact
 from test_shell_benchmarks import PINCHED, SCORDELIS_LO
 
 import shellcontact as sc
-from shellcontact.studies import accuracy
 from shellcontact.errors import InputError
+from shellcontact.studies import accuracy
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from shellcontact.problem.case import case_from_dict
 from shellcontact.errors import InputError
+from shellcontact.problem.case import case_from_dict
 
 DOC = (Path(__file__).resolve().parents[1] / "docs" / "architecture.md").read_text()
 

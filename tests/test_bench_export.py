@@ -7,8 +7,8 @@ import numpy as np
 
 from shellcontact.analysis.pipeline import solve
 from shellcontact.problem.case import load_case
-from shellcontact.solvers import kkt, solve_active_set
 from shellcontact.shell.supports import Reduction
+from shellcontact.solvers import kkt, solve_active_set
 
 BENCH = Path(__file__).resolve().parent.parent / "benchmarks"
 sys.path.insert(0, str(BENCH))

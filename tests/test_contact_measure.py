@@ -1,4 +1,5 @@
-"""Point forces and the interior pressure of the contact measure (shellcontact.contact.point_forces, shellcontact.contact.interior).
+"""Point forces and the interior pressure of the contact measure
+(shellcontact.contact.point_forces, shellcontact.contact.interior).
 
 For a Kirchhoff shell the contact multiplier is a measure: a pressure inside the contact set, line forces along
 its edges and point forces where a zone shrinks to a point. Checked here against independent references:

@@ -12,10 +12,7 @@ from shellcontact.contact.operator import contact_operator, penetration_outside
 from shellcontact.contact.punches import place_punches
 from shellcontact.errors import InputError
 from shellcontact.problem.case import case_from_dict
-from shellcontact.contact.operator import contact_operator, penetration_outside
-from shellcontact.errors import InputError
 from shellcontact.shell.geometry import frame, rigid_motion
-from shellcontact.contact.punches import place_punches
 from shellcontact.shell.spaces import ShellSpace
 from shellcontact.shell.supports import Reduction
 

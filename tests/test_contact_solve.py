@@ -30,15 +30,15 @@ import numpy as np
 import pytest
 
 from shellcontact import solve
-from shellcontact.shell import model
 from shellcontact.analysis.pipeline import default_penalty
-from shellcontact.problem.case import case_from_dict
 from shellcontact.demo import demo_case_path
 from shellcontact.errors import InputError
-from shellcontact.shell.geometry import rigid_motion
 from shellcontact.linalg import factorize
-from shellcontact.solvers import ContactQP, InfeasibleProblemError, dual_value, lagrangian
+from shellcontact.problem.case import case_from_dict
+from shellcontact.shell import model
+from shellcontact.shell.geometry import rigid_motion
 from shellcontact.shell.supports import Reduction
+from shellcontact.solvers import ContactQP, InfeasibleProblemError, dual_value, lagrangian
 
 METHODS = ("active-set", "dual", "penalty")
 EXACT = ("active-set", "dual")
@@ -623,8 +623,8 @@ def test_case_file_reference_is_generated_from_the_schema():
     every table of the schema, every shape and every key appears in it."""
     from pathlib import Path
 
-    from shellcontact.problem.case import CASE, DOC_TABLES, document
     from shellcontact.contact.punches import SHAPES
+    from shellcontact.problem.case import CASE, DOC_TABLES, document
 
     text = (Path(__file__).resolve().parents[1] / "docs" / "case-file.md").read_text()
     assert document(text) == text, \

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from shellcontact.analysis.pipeline import solve
-from shellcontact.problem.case import case_from_dict
-from shellcontact.studies.curves import family_key, solve_family
 from shellcontact.errors import InputError
-from shellcontact.shell.mesh import structured
 from shellcontact.inputs.overrides import apply_overrides
+from shellcontact.problem.case import case_from_dict
+from shellcontact.shell.mesh import structured
+from shellcontact.studies.curves import family_key, solve_family
 
 #: fields and forces of a warm-started point against the lone solve, relative to their size: both are the
 #: KKT point of the same strictly convex QP at tolerance 1e-10 (measured differences ~1e-13)

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-from shellcontact.problem.case import read_case_dict
-from shellcontact.errors import InputError
 from shellcontact.analysis.validity import EQUILIBRIUM_LIMIT
+from shellcontact.errors import InputError
+from shellcontact.problem.case import read_case_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 PANEL = ROOT / "examples" / "paper_panel.toml"

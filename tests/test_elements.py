@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 from skfem import CellBasis, ElementTriArgyris, ElementTriP2
 
-from shellcontact.shell import model
 from shellcontact.errors import InputError
-from shellcontact.shell.geometry import Shell, rigid_motion, to_local
 from shellcontact.linalg import factorize
+from shellcontact.shell import model
+from shellcontact.shell.geometry import Shell, rigid_motion, to_local
 from shellcontact.shell.material import Isotropic, Orthotropic
 from shellcontact.shell.mesh import structured
 from shellcontact.shell.model import element_chunks, field_derivatives

@@ -21,9 +21,9 @@ import pytest
 from oracles.axisym import Shell1D, sleeve_free_boundary
 
 import shellcontact
-from shellcontact.problem.case import case_from_dict, read_case_dict
-from shellcontact.errors import InputError
 from shellcontact.contact.punches import parse_punch
+from shellcontact.errors import InputError
+from shellcontact.problem.case import case_from_dict, read_case_dict
 
 A, T, E, MU = 1.0, 0.02, 2.0e5, 0.3
 ANGLE = 1.0  # degrees: panel width (an exact model of the axisymmetric state)

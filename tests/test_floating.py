@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-from shellcontact.shell import supports
 from shellcontact.cli import main as cli_main
 from shellcontact.errors import InputError
+from shellcontact.shell import supports
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "ring_stiffness.toml"
 # a mesh whose node lines fall on the zone edges, so that the full mesh is the quarter's mirror image

@@ -10,8 +10,8 @@ import pytest
 from test_contact_solve import sphere_dict
 
 from shellcontact import solve
-from shellcontact.problem.case import case_from_dict
 from shellcontact.errors import InputError
+from shellcontact.problem.case import case_from_dict
 
 
 def panel(**punch) -> dict:

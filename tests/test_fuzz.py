@@ -168,8 +168,8 @@ def test_generated_scheduler_addresses(tmp_path_factory: pytest.TempPathFactory)
     """--scheduler values: check_address accepts only tcp:// (tls:// with Dask's TLS settings) with a host and a
     port 1-65535, and refuses everything else by the option's name; a refused one is exit 2 from the command
     line, before any connection is tried (accepted ones are not connected to: nothing listens)."""
-    from shellcontact.studies.engine import check_address
     from shellcontact.errors import InputError
+    from shellcontact.studies.engine import check_address
 
     directory = tmp_path_factory.mktemp("fuzz-scheduler")
     case = directory / "case.toml"

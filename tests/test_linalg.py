@@ -10,8 +10,8 @@ import pytest
 import scipy.sparse as sp
 
 from shellcontact import linalg
-from shellcontact.shell import model
 from shellcontact.errors import InputError, SolverError
+from shellcontact.shell import model
 from shellcontact.shell.geometry import Shell
 from shellcontact.shell.material import Isotropic
 from shellcontact.shell.mesh import structured

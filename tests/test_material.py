@@ -44,10 +44,10 @@ import pytest
 from test_axisymmetric_pressure import ClampedPressurizedCylinder
 
 import shellcontact as sc
-from shellcontact.shell import model
 from shellcontact.analysis.pipeline import default_penalty
-from shellcontact.problem.case import MATERIAL, read_case_dict
 from shellcontact.errors import InputError
+from shellcontact.problem.case import MATERIAL, read_case_dict
+from shellcontact.shell import model
 from shellcontact.shell.geometry import Shell
 from shellcontact.shell.material import Isotropic, Orthotropic
 from shellcontact.shell.mesh import structured

@@ -64,7 +64,7 @@ def test_structure_layout_is_the_installed_header(tmp_path):
 def contact_system():
     """The demo case's reduced stiffness and contact rows at the coarsest mesh (18k unknowns)."""
     import shellcontact
-    from shellcontact.analysis.pipeline import discretize
+    from shellcontact.analysis.discretization import discretize
 
     d = discretize(shellcontact.load_case(ROOT / "examples" / "paper_panel.toml"))
     return d.Ar, d.Br

@@ -16,6 +16,7 @@ from shellcontact.analysis.pipeline import penalty_ratio, solve
 from shellcontact.cli import main
 from shellcontact.errors import InputError, SolverError
 from shellcontact.outputs.files import json_text
+from shellcontact.problem.case import case_from_dict
 from shellcontact.solvers import solve_active_set, solve_dual
 from shellcontact.solvers.qp import ContactQP
 

@@ -216,8 +216,8 @@ def test_contact_vertex_arrays_gather_operator_rows() -> None:
     from shellcontact import load_case
     from shellcontact.analysis.discretization import case_mesh
     from shellcontact.contact.operator import contact_operator
-    from shellcontact.outputs.fields import contact_vertex_arrays
     from shellcontact.contact.punches import place_punches
+    from shellcontact.outputs.fields import contact_vertex_arrays
     from shellcontact.shell.spaces import ShellSpace
 
     case = load_case(ROOT / "examples" / "paper_panel.toml", ["mesh.nx=6", "mesh.nphi=6", "mesh.grading={ratio=1.0}"])

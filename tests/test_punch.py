@@ -23,7 +23,11 @@ from shellcontact.contact.punches import (
     place_punches,
     punch_from_dict,
 )
+from shellcontact.errors import InputError
 from shellcontact.inputs.user_functions import CodeConsent, code_consent
+from shellcontact.problem.case import case_from_dict
+from shellcontact.shell.geometry import Shell
+from shellcontact.shell.material import Isotropic
 
 RNG = np.random.default_rng(7)
 

@@ -18,8 +18,8 @@ from pathlib import Path
 import pytest
 
 from shellcontact.analysis.pipeline import solve
-from shellcontact.problem.case import load_case
 from shellcontact.outputs.run import write_outputs
+from shellcontact.problem.case import load_case
 
 ROOT = Path(__file__).resolve().parents[1]
 CHROMIUM = next((p for p in map(shutil.which, ("chromium", "chromium-browser", "google-chrome")) if p), None)

@@ -14,7 +14,6 @@ from scipy import stats
 from shellcontact.errors import InputError
 from shellcontact.studies.parametric import rank_correlation
 from shellcontact.studies.sampling import grid, latin_hypercube, monte_carlo, parse_spec, read_points, sample
-from shellcontact.studies.runner import rank_correlation
 
 SPECS = ["shell.thickness=uniform(0.2,0.3)", "material.young=normal(4.32e8,2e7)", "shell.radius=lognormal(25,0.1)"]
 

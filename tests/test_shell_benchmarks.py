@@ -23,12 +23,13 @@ import scipy.sparse as sp
 import shellcontact as sc
 from shellcontact.analysis.discretization import case_mesh
 from shellcontact.errors import InputError
-from shellcontact.shell.geometry import Shell, rigid_motion
 from shellcontact.linalg import factorize
+from shellcontact.outputs.results import ShellSolution
+from shellcontact.shell import model
+from shellcontact.shell.geometry import Shell, rigid_motion
 from shellcontact.shell.loads import LineLoad, Loads, PointLoad, load_vector
 from shellcontact.shell.material import Isotropic
 from shellcontact.shell.mesh import structured
-from shellcontact.outputs.results import ShellSolution
 from shellcontact.shell.spaces import ShellSpace
 from shellcontact.shell.supports import Reduction, Supports, check_rigid_motions, constrained_dofs, periodic_pairs
 

@@ -16,7 +16,6 @@ from shellcontact.cli import main
 from shellcontact.contact.punches import place_punches
 from shellcontact.errors import InputError
 from shellcontact.problem import sizing
-from shellcontact.analysis.pipeline import discretize, solve
 from shellcontact.problem.case import case_from_dict
 from shellcontact.studies.sweeps import parse_values, sweep
 

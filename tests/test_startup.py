@@ -60,7 +60,6 @@ def test_overrides_does_not_import_case() -> None:
 
 def test_public_names_resolve_to_their_definitions() -> None:
     from shellcontact import errors
-    from shellcontact.studies import accuracy
     from shellcontact.analysis import pipeline as analysis
     from shellcontact.problem import case
     from shellcontact.shell import geometry

@@ -22,10 +22,10 @@ import scipy.sparse as sp
 from test_axisymmetric_pressure import ClampedPressurizedCylinder
 
 import shellcontact as sc
+from shellcontact.outputs.results import SURFACES, ShellSolution, SurfaceState
 from shellcontact.shell.geometry import Shell, to_local
 from shellcontact.shell.material import Isotropic, Orthotropic
 from shellcontact.shell.mesh import structured
-from shellcontact.outputs.results import SURFACES, ShellSolution, SurfaceState
 from shellcontact.shell.spaces import ShellSpace
 
 

@@ -25,7 +25,6 @@ import shellcontact.studies.runner as studies
 from shellcontact.errors import InputError
 from shellcontact.studies.parametric import study
 from shellcontact.studies.sampling import grid, latin_hypercube, parse_spec
-from shellcontact.studies.runner import study
 
 ROOT = Path(__file__).resolve().parents[1]
 PANEL = str(ROOT / "examples" / "paper_panel.toml")

@@ -10,10 +10,11 @@ import pytest
 import scipy.sparse as sp
 from test_contact_solve import sphere_dict
 
-from shellcontact.analysis.pipeline import default_penalty, discretize
-from shellcontact.problem.case import case_from_dict
+from shellcontact.analysis.discretization import discretize
+from shellcontact.analysis.pipeline import default_penalty
 from shellcontact.contact.friction import solve_coulomb, tangential_operator
 from shellcontact.linalg import factorize
+from shellcontact.problem.case import case_from_dict
 from shellcontact.solvers import solve_dual
 from shellcontact.solvers.tresca import solve_tresca_dual, solve_tresca_penalty
 

@@ -17,9 +17,9 @@ import pytest
 from inprocess import run_cli
 
 import shellcontact as sc
-from shellcontact.studies import runner as studies
-from shellcontact.problem.case import read_case_dict
 from shellcontact.errors import InputError
+from shellcontact.problem.case import read_case_dict
+from shellcontact.studies import runner as studies
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV_THREADS = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}

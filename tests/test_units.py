@@ -17,8 +17,8 @@ import pytest
 
 from shellcontact import units
 from shellcontact.analysis.pipeline import solve
-from shellcontact.problem.case import case_from_dict, load_case, read_case_dict
 from shellcontact.errors import InputError
+from shellcontact.problem.case import case_from_dict, load_case, read_case_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 CYLINDER = ROOT / "examples" / "pressurized_cylinder.toml"

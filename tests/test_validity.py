@@ -16,11 +16,11 @@ import pytest
 from test_axisymmetric_pressure import ClampedPressurizedCylinder
 
 import shellcontact as sc
-from shellcontact.problem.case import read_case_dict
+from shellcontact.analysis.validity import ROTATION_LIMIT, STRETCH_RATIO_LIMIT, THICKNESS_RATIO_LIMIT, range_measures
 from shellcontact.cli import main
 from shellcontact.errors import InputError
 from shellcontact.outputs.report import render
-from shellcontact.analysis.validity import ROTATION_LIMIT, STRETCH_RATIO_LIMIT, THICKNESS_RATIO_LIMIT, range_measures
+from shellcontact.problem.case import read_case_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 PANEL = ROOT / "examples" / "paper_panel.toml"

@@ -13,9 +13,9 @@ import pytest
 import shellcontact as sc
 from shellcontact.analysis.pipeline import mesh_lines
 from shellcontact.contact.operator import contact_zone
-from shellcontact.shell.mesh import build_mesh
 from shellcontact.contact.punches import place_punches
 from shellcontact.contact.zone_points import nearest_point_class
+from shellcontact.shell.mesh import build_mesh
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

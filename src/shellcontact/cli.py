@@ -50,8 +50,8 @@ def _sets(args: argparse.Namespace) -> list[str]:
 
 
 def _load(args: argparse.Namespace):
-    from .problem.case import load_case
     from .inputs.user_functions import consent_for
+    from .problem.case import load_case
 
     sets = _sets(args)
     consent_for(args.allow_code, args.allow_module, args.case, "--allow-module")  # names checked, by the flag
@@ -155,10 +155,10 @@ def _closing(n_warnings: int) -> str:
 
 # -- commands ----------------------------------------------------------------------------------------------
 def cmd_run(args: argparse.Namespace, con: Console) -> int:
-    from .studies.accuracy import describe, run_mode
     from .analysis.pipeline import solve
     from .outputs.run import RUN_FILES, write_run_files
     from .outputs.transaction import replace_dir
+    from .studies.accuracy import describe, run_mode
 
     case, sets = _load(args)
     _check_profiles(args, case.shell)
@@ -260,7 +260,6 @@ def cmd_sweep(args: argparse.Namespace, con: Console) -> int:
 def cmd_study(args: argparse.Namespace, con: Console) -> int:
     from .studies.parametric import study, study_table
     from .studies.sampling import parse_spec, read_points, sample
-    from .studies.runner import study, study_table
 
     if args.points and args.param:
         raise InputError("--points", "give either a table of points or -p KEY=SPEC, not both")

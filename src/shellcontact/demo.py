@@ -19,6 +19,7 @@ from .outputs.files import atomic_write_text, write_json
 from .outputs.run import write_run_files
 from .outputs.tables import split_markdown
 from .outputs.transaction import replace_dir
+from .problem.case import load_case
 from .units import bracket, label
 
 CASE_FILE = "paper_panel.toml"

@@ -91,8 +91,8 @@ def roller_case(refine: int = 0, indentation: float = 2e-3, force: float | None 
 
 def sphere_case(n: int = 8, refine: int = 0, indentation: float | None = None):
     """The paper's panel (cases/paper_panel.toml) on an n × n mesh (optionally another indentation)."""
-    from .problem.case import case_from_dict
     from .demo import demo_case_path
+    from .problem.case import case_from_dict
 
     with open(demo_case_path(), "rb") as f:
         d = copy.deepcopy(tomllib.load(f))

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from ..problem.case import Case
 from ..contact.friction import COULOMB_CONTRACTION, COULOMB_TOL, TangentialOperator, solve_coulomb, tangential_operator
 from ..linalg import factorize
+from ..problem.case import Case
 from ..solvers.qp import ContactSolution
 from ..solvers.tresca import solve_tresca_dual, solve_tresca_penalty
 from .validity import ResultWarning

@@ -38,8 +38,8 @@ from ..errors import InputError, SolverError
 from ..units import with_unit
 
 if TYPE_CHECKING:
-    from ..problem.case import Case
     from ..outputs.results import ShellSolution
+    from ..problem.case import Case
 
 THICKNESS_RATIO_LIMIT = 1.0 / 20.0
 STRETCH_RATIO_LIMIT = 0.09

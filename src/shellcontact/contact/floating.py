@@ -38,10 +38,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .operator import ContactOperator
 from ..errors import InputError
 from ..shell.spaces import ShellSpace
 from ..shell.supports import Reduction, _echelon, describe_motion, remedy, right_singular, rigid_modes
+from .operator import ContactOperator
 
 #: a free motion carries no load when |Rᵀ F| is below this fraction of its gross size Σ |f_d r_d| (round-off,
 #: or on an unsymmetric mesh the interpolation error of the motion, which is not exactly rigid in V_h)

@@ -31,9 +31,9 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from .operator import ContactOperator, surface_rows
 from ..errors import InputError
 from ..shell.spaces import ShellSpace
+from .operator import ContactOperator, surface_rows
 
 #: below this |e_x × ν| the axis is (nearly) normal to the punch and τ1 comes from the circumferential e2
 AXIS_NEAR_NORMAL = np.sin(np.radians(25.0))

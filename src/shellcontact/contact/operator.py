@@ -50,8 +50,8 @@ import scipy.sparse as sp
 
 from ..errors import InputError
 from ..shell.geometry import frame
-from .punches import Punch
 from ..shell.spaces import ShellSpace
+from .punches import Punch
 from .zone_points import ROUND_OFF_GAP, nearest_point_class
 
 POINTS = ("vertices", "vertices+midpoints")

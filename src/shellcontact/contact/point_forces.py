@@ -5,7 +5,8 @@ pressure inside a zone and the line forces along its boundary, a zone that shrin
 a panel lightly, a pinched contact) carries a point force. In the discrete solution such a force sits on a few
 constraint points round one spot, whatever the mesh: a cluster of carrying points no wider than the elements
 there. Dividing it by a rim length or an area gives numbers that grow without bound under refinement, so it is
-reported as what it is, a force (N) at a position, and left out of the line/interior split (``shellcontact.contact.rim``).
+reported as what it is, a force (N) at a position, and left out of the line/interior split
+(``shellcontact.contact.rim``).
 
 A cluster: the carrying points (Λᵢ > 0) joined when closer than ``JOIN`` element widths (the constraint points
 of one element, vertices and edge midpoints, are within one width of each other). A cluster is a point force when

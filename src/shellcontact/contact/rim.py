@@ -38,11 +38,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
+from ..shell.spaces import ShellSpace
 from .interior import interior_split
+from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
-from ..shell.spaces import ShellSpace
 
 SAMPLES = (33, 257)  # grid points along each side of a zone's sampling box: 4 per element, within these
 PER_ELEMENT = 4

@@ -13,10 +13,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ..units import summary_units
 from .fields import vertex_fields
 from .files import atomic_write_bytes, write_json
 from .report import write_report
-from ..units import summary_units
 from .writers import write_npz, write_vtu
 
 #: files a run directory may contain; ``--force`` replaces exactly these (other files are kept)

@@ -22,22 +22,22 @@ from typing import Any
 
 import numpy as np
 
-from ..inputs.arguments import described, expect_path, expect_strings
+from ..contact.punches import EXTENT, HALF_SPACE, PUNCH, SHAPES, ZONE, PunchSpec, parse_punches
+from ..contact.punches.friction_spec import FRICTION
 from ..errors import InputError
-from ..shell.geometry import Shell
+from ..inputs.arguments import described, expect_path, expect_strings
 from ..inputs.hints import angle_unit_error
+from ..inputs.schema import Key, Table, check_unknown
+from ..inputs.user_functions import CodeConsent, code_consent, consent_for, current_consent
 from ..linalg import BACKENDS
+from ..shell.geometry import Shell
 from ..shell.loads import LineLoad, Loads, PointLoad
 from ..shell.material import MATERIALS, Material, check_stiffness_range
 from ..shell.mesh import PATTERNS, MeshSpec
-from .options import SolverOptions
-from ..contact.punches import EXTENT, HALF_SPACE, PUNCH, SHAPES, ZONE, PunchSpec, parse_punches
-from ..contact.punches.friction_spec import FRICTION
-from ..inputs.schema import Key, Table, check_unknown
-from ..solvers.methods import METHODS
 from ..shell.supports import SUPPORTS, Supports
+from ..solvers.methods import METHODS
 from ..units import SYSTEMS
-from ..inputs.user_functions import CodeConsent, code_consent, consent_for, current_consent
+from .options import SolverOptions
 
 _NUMBER_OR_FUNCTION = "string `\"module:function\"`: a function t(x, phi) (NumPy, φ in radians)"
 #: the allowed column of every modulus (material.check_stiffness_range)

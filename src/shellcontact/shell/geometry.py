@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
-from .material import Material
 from ..inputs.user_functions import UserFunction, user_function
+from .material import Material
 
 ThicknessFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
 

@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
+from ..inputs.user_functions import UserFunction, user_function
 from .geometry import Shell, to_local
 from .model import element_chunks
 from .spaces import ShellSpace
-from ..inputs.user_functions import UserFunction, user_function
 
 Value = float | Callable[[np.ndarray, np.ndarray], np.ndarray]
 Vector = tuple[float, float, float] | Callable[[np.ndarray, np.ndarray], np.ndarray]

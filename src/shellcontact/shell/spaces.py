@@ -20,8 +20,8 @@ from skfem import ElementTriP2
 from skfem.quadrature import get_quadrature
 from skfem.refdom import RefTri
 
-from .argyris import ArgyrisBasis, edge_normals
 from ..errors import InputError
+from .argyris import ArgyrisBasis, edge_normals
 from .mesh import ShellMesh
 
 W_KINDS = ("w", "w_x", "w_s", "w_xx", "w_xs", "w_ss")

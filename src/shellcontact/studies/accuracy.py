@@ -31,10 +31,10 @@ from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from typing import Any
 
-from ..inputs.arguments import expect_callable, expect_integer
-from ..errors import InputError, ShellContactError
-from .refine_advice import advice
 from ..analysis.validity import ResultWarning, record
+from ..errors import InputError, ShellContactError
+from ..inputs.arguments import expect_callable, expect_integer
+from .refine_advice import advice
 
 #: the headline quantities by summary path (``*``: every list index or key), each with the numbers its relative
 #: error is measured against besides its own size: (path, factor) pairs, the path's indices those of the
@@ -159,8 +159,8 @@ def accuracy_table(summaries: Sequence[Mapping[str, Any]], ratio: float = RATIO)
 
 # -- meshes ------------------------------------------------------------------------------------------------
 def _with(case, assignments: Mapping[str, Any]):
-    from ..problem.case import case_from_dict
     from ..inputs.overrides import apply_overrides
+    from ..problem.case import case_from_dict
 
     return case_from_dict(apply_overrides(case.raw, assignments), source=case.source)
 

@@ -66,16 +66,13 @@ from ..contact.operator import ContactOperator, contact_operator, point_flexibil
 from ..contact.punches import Punch, place_punches
 from ..errors import InputError, SolverError
 from ..inputs.arguments import expect_callable, expect_choice
-from ..problem.case import Case, expect_case
-from ..contact.operator import ContactOperator, contact_operator, point_flexibility
-from ..errors import InputError, SolverError
 from ..linalg import BACKENDS, Factorization, factorize
 from ..linalg.bordered import SchurRows
 from ..linalg.sparse import same_entries
-from ..shell.mesh import node_lines
+from ..problem.case import Case, expect_case
 from ..problem.options import SolverOptions
-from ..contact.punches import Punch, place_punches
 from ..problem.sizing import check_size, mesh_lines
+from ..shell.mesh import node_lines
 from ..solvers import ContactQP
 from ..solvers.methods import METHODS
 from ..solvers.screening import initial_rows, solve_screened_curve

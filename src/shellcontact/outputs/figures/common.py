@@ -13,9 +13,9 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 from matplotlib.tri import Triangulation
 
+from ...units import bracket, with_unit
 from ..fields import contact_vertex_fields
 from ..files import atomic_write_bytes
-from ...units import bracket, with_unit
 
 DPI = 110
 

@@ -18,9 +18,9 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from ...units import with_unit
 from ..fields import contact_vertex_fields
 from .common import _contact_outline, _finish, _fmt, _levels, _map_axes, _q, _unit, _vertex_map
-from ...units import with_unit
 
 
 def _contact_box(fields: dict[str, np.ndarray], x: np.ndarray, phi: np.ndarray, hx: float, hphi: float):
