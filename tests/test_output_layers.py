@@ -27,7 +27,7 @@ LAYERS = (
     {"solvers"},
     {"linalg"},
     {"inputs"},
-    {"errors", "lazy", "units"},  # leaves every layer may use
+    {"errors", "lazy", "units", "launcher"},  # leaves every layer may use
 )
 
 #: the package modules each output module may import (and nothing else of the package); ``outputs.results``

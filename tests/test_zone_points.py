@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-from shellcontact.analysis.pipeline import mesh_lines
+from shellcontact.problem.sizing import mesh_lines
 from shellcontact.contact.operator import contact_zone
 from shellcontact.contact.punches import place_punches
 from shellcontact.contact.zone_points import nearest_point_class

@@ -14,6 +14,7 @@ never initialises MPI.
 
 from __future__ import annotations
 
+import os
 import resource
 import sys
 import time
@@ -29,8 +30,17 @@ _TAG = 2727
 _POLL_SECONDS = 0.0005
 
 
+#: a process that no launcher started (the mumps backend in a plain run) is MPI's only rank: it needs no TCP
+#: transport, so none listens (Open MPI's TCP BTL would listen on every interface; the user's own settings win)
+SINGLETON_MCA = {"OMPI_MCA_btl": "self,vader", "OMPI_MCA_oob_tcp_if_include": "lo",
+                 "OMPI_MCA_oob_tcp_disable_ipv6_family": "1"}
+
+
 def comm():
     """MPI's world communicator (mpi4py; initialises MPI on first use)."""
+    if launched_ranks() == 1 and "mpi4py.MPI" not in sys.modules:
+        for name, value in SINGLETON_MCA.items():
+            os.environ.setdefault(name, value)
     from mpi4py import MPI
 
     return MPI.COMM_WORLD
