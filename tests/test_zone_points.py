@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import shellcontact as sc
-from shellcontact.problem.sizing import mesh_lines
 from shellcontact.contact.operator import contact_zone
 from shellcontact.contact.punches import place_punches
 from shellcontact.contact.zone_points import nearest_point_class
+from shellcontact.problem.sizing import mesh_lines
 from shellcontact.shell.mesh import build_mesh
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
