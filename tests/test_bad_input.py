@@ -6,12 +6,14 @@ Each case runs the command line as a subprocess (``python -m shellcontact.cli``)
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 from inprocess import run_cli
 
@@ -466,25 +468,28 @@ def test_mesh_file_no_reader_takes(run: InProcess, tmp_path: Path) -> None:
     assert r.stderr.strip() == expected
 
 
-def test_dual_without_curvature_is_a_solver_failure(run: InProcess, tmp_path: Path) -> None:
+def test_a_plane_pushed_onto_a_clamped_edge_is_solved_by_every_method(run: InProcess, tmp_path: Path) -> None:
     """Found by the fuzzer: a force-controlled plane whose first contact is on a clamped edge. The dual Hessian
-    B A⁻¹ Bᵀ vanishes on the rows the clamp holds, so MPRGP's proportioning step divided by zero (exit 1); it is
-    now a solver failure (exit 3) that says why and names the method that copes (the active set solves it)."""
+    B A⁻¹ Bᵀ vanishes on the rows the clamp holds: MPRGP once divided by zero (exit 1), then the dual refused and,
+    after the singular-face handling, the active set dropped the whole face (force_balance 1). The bordered face
+    system [[S, D], [Dᵀ, 0]] is regular all the same (the prescribed 1 N fixes the forces: solvers/face.py), so
+    every method solves it, and they agree: the clamp carries the 1 N, the plane does not move (4.5e-11 m)."""
     (tmp_path / "case.toml").write_text(textwrap.dedent("""\
         shell = {radius = 1.0, length = 1.0, angle = [60.0, 120.0], thickness = 0.01, young = 2.1e11, poisson = 0.3}
         mesh = {nx = 4, nphi = 4}
         punch = [{shape = "plane", force = 1.0, center = [298681.0, 0.0, 0.0], normal = [18605.0, 3.0, 3.0]}]
         """))
-    r = run("run", "case.toml", "-o", "out", "--no-figures", "--no-report", "--method", "dual")
-    assert r.returncode == 3 and "Traceback" not in r.stderr, r.stderr
-    assert "dual: the dual Hessian has no curvature along the constraint rows" in r.stderr
-    assert not (tmp_path / "out").exists()
-    r = run("run", "case.toml", "-o", "out", "--no-figures", "--no-report", "--method", "active-set")
-    if r.returncode == 3 and "force_balance        1.000e+00" in r.stderr:
-        # open defect (issue 23): since the singular-face handling (solvers/face.py) the active set's face here,
-        # rows the clamp holds (S_ii = 0), is dropped whole and the 1 N goes unbalanced; it solved before
-        pytest.xfail("active set: the clamped face is dropped whole and the prescribed 1 N is not balanced")
-    assert r.returncode == 0, r.stderr
+    found = {}
+    for method in ("active-set", "dual", "penalty"):
+        r = run("run", "case.toml", "-o", method, "--no-figures", "--no-report", "--method", method)
+        assert r.returncode == 0, (method, r.stderr)
+        c = json.loads((tmp_path / method / "summary.json").read_text())["contact"][0]
+        found[method] = np.array(c["force"]), c["punch_travel"]
+    n = np.array([18605.0, 3.0, 3.0]) / np.linalg.norm([18605.0, 3.0, 3.0])
+    for method, (force, travel) in found.items():
+        assert abs(abs(force @ n) - 1.0) < 1e-12 and np.linalg.norm(np.cross(force, n)) < 1e-12, (method, force)
+        assert abs(travel) < 1e-9, (method, travel)  # measured 4.46e-11 m (exact), 4.45e-11 m (penalty)
+    assert np.array_equal(found["active-set"][0], found["dual"][0])  # measured: identical
 
 
 def test_integers_longer_than_python_reads(run: InProcess, tmp_path: Path) -> None:

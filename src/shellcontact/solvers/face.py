@@ -77,6 +77,8 @@ def solve_face(H: np.ndarray, rhs: np.ndarray, DI: np.ndarray | None = None,
         return FaceSolution(x, None, dropped_rows, np.zeros(0, dtype=np.int64))
     k = DI.shape[1]
     delta = np.zeros(k)
+    if dropped_rows.size and (whole := _bordered(H, DI, rhs, rhs2)) is not None:
+        return FaceSolution(whole[:n], whole[n:], np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     if keep.size == 0:
         return FaceSolution(x, delta, dropped_rows, np.arange(k))
     Dk = DI[keep]
@@ -89,3 +91,15 @@ def solve_face(H: np.ndarray, rhs: np.ndarray, DI: np.ndarray | None = None,
         delta[cols] = sla.cho_solve(cd, (Dk.T @ X[:, 0] - rhs2)[cols], check_finite=False)
     x[keep] = X[:, 0] - X[:, 1:] @ delta
     return FaceSolution(x, delta, dropped_rows, np.setdiff1d(np.arange(k), cols))
+
+
+def _bordered(H: np.ndarray, DI: np.ndarray, rhs: np.ndarray, rhs2: np.ndarray) -> np.ndarray | None:
+    """[x; δ] from the whole bordered system [[H, D], [Dᵀ, 0]] [x; δ] = [rhs; rhs2] when it is regular although H
+    is not: rows a clamp holds (S_ii = 0) whose forces the prescribed force P alone determines (a plane pushed with
+    1 N onto a clamped edge). None when the bordered matrix is singular too (then rows and columns are dropped)."""
+    n, k = DI.shape
+    M = np.block([[H, DI], [DI.T, np.zeros((k, k))]])
+    sv = np.linalg.svd(M, compute_uv=False)
+    if sv.size == 0 or not sv[-1] > PIVOT_RTOL ** 0.5 * sv[0]:
+        return None
+    return np.linalg.solve(M, np.concatenate([rhs, rhs2]))
