@@ -133,3 +133,16 @@ def test_study_figures_carry_units() -> None:
     assert plots.plot_sweep(counts, "mesh.nx").axes[0].get_xlabel() == "mesh.nx"  # a count has no unit
     conv = [{"h": h, "error_force": h**2} for h in (0.1, 0.05, 0.025)]
     assert plots.plot_convergence(conv, system="mm").axes[0].get_xlabel().endswith("[mm]")
+
+
+def test_pressure_title_gives_the_peak_the_report_gives(panel) -> None:
+    """Issue 22: one value wherever a quantity appears. The map shows vertex values, but the title's nodal peak
+    is the summary's ``peak_pressure`` over vertices and edge midpoints (it read the vertices' 1.59e8 Pa where
+    the report said 2.13e8 Pa on the demo case)."""
+    from shellcontact.outputs.figures.contact import plot_pressure
+
+    fig = plot_pressure(panel)
+    peak = panel.summary()["contact"][0]["peak_pressure"]  # in the case's units (N, mm, MPa), as the title
+    title = fig.axes[0].get_title()
+    shown = float(title.split("nodal peak Λ/ω ")[1].split()[0])
+    assert shown == pytest.approx(peak, rel=5e-4), (title, peak)  # 4 digits shown
