@@ -21,7 +21,7 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 from .protocol import Factorization
-from .sparse import upper
+from .sparse import checked_upper
 
 #: blocks of right-hand sides with fewer nonzeros than this fraction are given to MUMPS as sparse
 #: (ICNTL(20) = 1). Measured on the demo at refine 1 (68k unknowns, 64 columns of Bᵀ, 1 rank): dense
@@ -59,13 +59,6 @@ def _count(value: int) -> int:
     return value if value >= 0 else -value * 1_000_000
 
 
-def _checked_upper(As: sp.csr_matrix) -> sp.csr_matrix:
-    U = upper(As)
-    if np.any(np.diff(U.indptr) == 0):
-        raise SolverError("matrix has an empty row: singular")
-    return U
-
-
 class Mumps(Factorization):
     """MUMPS on the upper triangle of the equilibrated matrix, all ranks of MPI's world taking part."""
 
@@ -76,7 +69,7 @@ class Mumps(Factorization):
         from . import mpi
 
         self._instance = mpi.HostInstance(dict(_SETTINGS))
-        self._set_matrix(_checked_upper(As))
+        self._set_matrix(checked_upper(As))
         self._run(4)  # analysis and factorisation
 
     def _set_matrix(self, U: sp.csr_matrix) -> None:
@@ -122,7 +115,7 @@ class Mumps(Factorization):
         return x
 
     def _refactor(self, As: sp.csr_matrix) -> None:
-        U = _checked_upper(As)
+        U = checked_upper(As)
         indptr, indices = self._pattern
         if np.array_equal(U.indptr, indptr) and np.array_equal(U.indices, indices):
             self._a[:] = U.tocoo().data

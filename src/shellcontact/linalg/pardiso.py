@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from ..errors import SolverError
 from .bordered import bordered_upper
 from .protocol import Factorization
-from .sparse import upper
+from .sparse import checked_upper
 
 _MKL_PARDISO = None
 
@@ -146,13 +146,6 @@ class _Session:
                 self.pt[:] = 0
 
 
-def _checked_upper(As: sp.csr_matrix) -> sp.csr_matrix:
-    U = upper(As)
-    if np.any(np.diff(U.indptr) == 0):
-        raise SolverError("matrix has an empty row: singular")
-    return U
-
-
 class Pardiso(Factorization):
     """MKL PARDISO; with a border, the factors of the bordered M serve the solves with A."""
 
@@ -162,7 +155,7 @@ class Pardiso(Factorization):
 
     def _factor(self, As: sp.csr_matrix) -> None:
         self._n = As.shape[0]
-        self._session = _Session(_checked_upper(As))
+        self._session = _Session(checked_upper(As))
         self._session.factor()
 
     def _factor_bordered(self, As: sp.csr_matrix, Bs: sp.csr_matrix, rho: float) -> np.ndarray:
@@ -180,10 +173,10 @@ class Pardiso(Factorization):
 
     def _refactor(self, As: sp.csr_matrix) -> None:
         if self._session.n == self._n:
-            self._session.refactor(_checked_upper(As))
+            self._session.refactor(checked_upper(As))
             return
         self._session.free()  # bordered: factorise A alone from now on
-        self._session = _Session(_checked_upper(As))
+        self._session = _Session(checked_upper(As))
         self._session.factor()
 
     def _factor_info(self) -> dict:

@@ -99,6 +99,15 @@ def upper(A: sp.csr_matrix) -> sp.csr_matrix:
     return triu(A)
 
 
+def checked_upper(As: sp.csr_matrix) -> sp.csr_matrix:
+    """``upper(As)`` for a direct solver that takes the upper triangle (PARDISO, MUMPS): a row without an entry
+    there is a singular matrix, said before the solver sees it."""
+    U = upper(As)
+    if np.any(np.diff(U.indptr) == 0):
+        raise SolverError("matrix has an empty row: singular")
+    return U
+
+
 def equilibrate(A: sp.csr_matrix, upper: bool = False) -> tuple[np.ndarray, sp.csr_matrix]:
     """scale = diag(A)^-½ and S A S, or with ``upper`` only its upper triangle (all PARDISO reads:
     half the entries to copy and scale; 3 s of the factorisation stage at 1.1M dofs otherwise)."""
