@@ -398,3 +398,30 @@ def test_ctrl_c_while_the_cluster_starts_prints_no_traceback(tmp_path: Path) -> 
         os.killpg(proc.pid, signal.SIGINT)
         _, err = proc.communicate(timeout=60)
         assert proc.returncode == 130 and err == "interrupted\n", (delay, err)
+
+
+def test_a_worker_spawned_after_an_abandoned_cluster_start_exits_silently() -> None:
+    """The race behind a traceback after "interrupted": a nanny spawning (or restarting) a worker after the start
+    was abandoned. Such a process must exit at once, before Python starts, and spawning must recover afterwards."""
+    import multiprocessing
+    import multiprocessing.spawn
+
+    from shellcontact.studies import engine
+
+    real = multiprocessing.spawn.get_executable()
+    with engine._workers_ignore_sigint() as abandon:
+        abandon()
+    ctx = multiprocessing.get_context("spawn")
+    late = ctx.Process(target=print, args=("a late worker ran Python",))
+    started = time.monotonic()
+    late.start()
+    late.join(30)
+    assert late.exitcode == 1 and time.monotonic() - started < 5  # `false`, not Python (which would exit 0)
+    deadline = time.monotonic() + engine.RESTORE_DELAY + 10
+    while multiprocessing.spawn.get_executable() != real:
+        assert time.monotonic() < deadline, multiprocessing.spawn.get_executable()
+        time.sleep(0.05)
+    again = ctx.Process(target=print, args=("",))
+    again.start()
+    again.join(60)
+    assert again.exitcode == 0

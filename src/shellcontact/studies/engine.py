@@ -238,32 +238,90 @@ def silence_dask() -> None:
         logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
+_LAUNCHERS: set[str] = set()  # the spawn executables this module sets (its launchers, and "no spawn")
+_REAL_EXECUTABLE: list[str] = []  # multiprocessing's own executable, before any of ours
+ABANDON_TIMEOUT = 30.0  # s: an interrupted cluster start is waited for this long (its workers exit at once)
+RESTORE_DELAY = 2.0  # s after an abandoned start before new processes may spawn Python again
+
+
+def _real_spawn_executable() -> str | None:
+    import multiprocessing.spawn
+
+    current = multiprocessing.spawn.get_executable()
+    if current is not None and os.fsdecode(current) not in _LAUNCHERS:
+        _REAL_EXECUTABLE[:] = [os.fsdecode(current)]
+    return _REAL_EXECUTABLE[0] if _REAL_EXECUTABLE else None
+
+
 @contextlib.contextmanager
-def _workers_ignore_sigint() -> Iterator[None]:
+def _workers_ignore_sigint() -> Iterator[Callable[[], None]]:
     """Worker processes spawned inside start with SIGINT ignored: Python is launched through ``/bin/sh`` after
     ``trap '' INT`` (an ignored signal stays ignored across exec, and Python then installs no KeyboardInterrupt
-    handler). A terminal's Ctrl-C reaches the whole process group; this process ends the workers itself."""
+    handler). A terminal's Ctrl-C reaches the whole process group; this process ends the workers itself.
+    Yields ``abandon``: from then on a spawned process runs ``false`` and exits at once (an abandoned start, or a
+    nanny restarting a killed worker, may still spawn; such a worker would unpickle locks this process has
+    released, or outlive it), and Python is spawned again only ``RESTORE_DELAY`` s after the abandoned start."""
     import multiprocessing.spawn
     import shlex
+    import shutil
     import tempfile
 
-    previous = multiprocessing.spawn.get_executable()
-    if not os.path.exists("/bin/sh") or previous is None:
-        yield
+    real = _real_spawn_executable()
+    no_spawn = shutil.which("false")
+    if not os.path.exists("/bin/sh") or real is None or no_spawn is None:
+        yield lambda: None
         return
     directory = tempfile.mkdtemp(prefix="shellcontact-launch-")
     launcher = os.path.join(directory, "python")
+    _LAUNCHERS.update((launcher, no_spawn))
+    abandoned = threading.Event()
+
+    def abandon() -> None:
+        abandoned.set()
+        multiprocessing.spawn.set_executable(no_spawn)
+
     try:
         with open(launcher, "w") as fh:
-            fh.write(f"#!/bin/sh\ntrap '' INT\nexec {shlex.quote(os.fsdecode(previous))} \"$@\"\n")
+            fh.write(f"#!/bin/sh\ntrap '' INT\nexec {shlex.quote(real)} \"$@\"\n")
         os.chmod(launcher, 0o700)
         multiprocessing.spawn.set_executable(launcher)
-        yield
+        yield abandon
     finally:
-        multiprocessing.spawn.set_executable(previous)
+        if abandoned.is_set():
+            threading.Thread(target=_restore_spawning, args=(no_spawn, real), daemon=True,
+                             name="shellcontact-restore-spawn").start()
+        else:
+            multiprocessing.spawn.set_executable(real)
         with contextlib.suppress(OSError):
             os.unlink(launcher)
             os.rmdir(directory)
+
+
+def _restore_spawning(no_spawn: str, real: str) -> None:
+    import multiprocessing.spawn
+    import time
+
+    time.sleep(RESTORE_DELAY)
+    if os.fsdecode(multiprocessing.spawn.get_executable()) == no_spawn:  # unless a new start has set its own
+        multiprocessing.spawn.set_executable(real)
+
+
+def _start_resource_tracker() -> None:
+    """multiprocessing's resource tracker, started without its shutdown warnings about semaphores (it still
+    removes them): a Dask thread interrupted between unlinking a lock and telling the tracker, as the process
+    ends after a Ctrl-C, makes it warn of a leak that is not one and of a file already gone."""
+    from multiprocessing import resource_tracker
+
+    key = "PYTHONWARNINGS"
+    previous = os.environ.get(key)
+    os.environ[key] = ",".join(filter(None, [previous, "ignore:resource_tracker:UserWarning"]))
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        if previous is None:
+            del os.environ[key]
+        else:
+            os.environ[key] = previous
 
 
 def _start_quietly(start: Callable[[], Any]) -> Any:
@@ -275,6 +333,7 @@ def _start_quietly(start: Callable[[], Any]) -> Any:
 
     box: dict[str, Any] = {}
     before = set(SpecCluster._instances)
+    _start_resource_tracker()  # a process of its own, started before the snapshot: never killed here
     children = {p.pid for p in psutil.Process().children(recursive=True)}
 
     def run() -> None:
@@ -283,27 +342,28 @@ def _start_quietly(start: Callable[[], Any]) -> Any:
         except BaseException as exc:  # noqa: BLE001 — handed to the waiting thread
             box["error"] = exc
 
+    def kill_new_children() -> None:
+        for child in psutil.Process().children(recursive=True):
+            if child.pid not in children:
+                with contextlib.suppress(psutil.Error):
+                    child.kill()
+
     thread = threading.Thread(target=run, name="shellcontact-cluster", daemon=True)
-    try:
-        with _workers_ignore_sigint():
+    with _workers_ignore_sigint() as abandon:
+        try:
             thread.start()
             while thread.is_alive():
                 thread.join(0.05)
-    except BaseException:
-        silence_dask()
-
-        def kill_new_children() -> None:
-            for child in psutil.Process().children(recursive=True):
-                with contextlib.suppress(psutil.Error):
-                    if child.pid not in children and "resource_tracker" not in " ".join(child.cmdline()):
-                        child.kill()
-
-        kill_new_children()
-        thread.join(10)
-        kill_new_children()  # those spawned while the start was failing
-        for cluster in set(SpecCluster._instances) - before:
-            SpecCluster._instances.discard(cluster)
-        raise
+        except BaseException:
+            with contextlib.suppress(KeyboardInterrupt):  # a second Ctrl-C does not stop the clean-up
+                abandon()
+                silence_dask()
+                kill_new_children()
+                thread.join(ABANDON_TIMEOUT)
+                kill_new_children()  # those spawned before the start gave up
+            for cluster in set(SpecCluster._instances) - before:
+                SpecCluster._instances.discard(cluster)
+            raise
     if "error" in box:
         raise box["error"]
     return box["value"]
