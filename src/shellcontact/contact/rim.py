@@ -185,6 +185,9 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
     X, P = np.meshgrid(xs, ps)
     if classes is not None:  # off the body its mirrored idle points close the zone
         f = _class_field(*classes, X, a * P, 2.0 * np.pi * a if sh.full else None)
+        # a sample equidistant from a touching and an idle point (common on a mirror-symmetric mesh) is not on
+        # the line: the marching squares' choice at an exact 0 depends on the tracing direction, not the mirror
+        f -= 1e-6 * min(xs[1] - xs[0], a * (ps[1] - ps[0]))
     else:
         ops = space.point_operators(X.ravel(), a * P.ravel(), GAP_QUANTITIES)
         fields = {q: op @ U for q, op in ops.items()}
