@@ -40,7 +40,7 @@ import numpy as np
 
 from ..shell.spaces import ShellSpace
 from .interior import interior_split
-from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
+from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
 
@@ -63,17 +63,12 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
     polylines (n, 2) in (x, s = aφ) where the line force acts, for the figures."""
     forced = [k for k, p in enumerate(punches) if p.mode == "force"]
     normal = np.linalg.norm(operator.grad, axis=0) * np.asarray(Lam, float)
-    row_gap = operator.gap(U, delta)
     out: list[dict | None] = []
     polylines: list[list[np.ndarray]] = []
     for k, (p, zone) in enumerate(zip(punches, zones)):
         rows = operator.rows(k)
         step = float(np.asarray(delta, float)[forced.index(k)]) if p.mode == "force" and delta is not None else None
-        touching = None
-        if zone_tolerance(p, step) == 0.0:  # a fixed punch that only touches: its zone is where it carries
-            touching = (np.asarray(Lam, float)[rows] > 0.0) | (row_gap[rows] <= zone["gap_tolerance"])
-        lines = (_rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"],
-                            _points_of(space, p, operator, rows, touching)) if "x" in zone else [])
+        lines = _rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"]) if "x" in zone else []
         polylines.append([])
         force = normal[rows].copy()
         if not np.any(force > 0.0):
@@ -117,51 +112,9 @@ def _only_points(points: list[dict], rest: np.ndarray, zone_area: float) -> dict
             "samples": [], "point_force": sum(q["force"] for q in points), "point_forces": points}
 
 
-def _points_of(space: ShellSpace, p: Punch, operator: ContactOperator, rows: np.ndarray,
-               touching: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
-    """A fixed punch's constraint points (n, 2) in (x, s) and whether each touches (None for a moving punch),
-    with idle points mirrored across the candidate zone's edges: each point's neighbours reflected through it
-    where that falls outside the zone or off the body, but on the shell (past a symmetry plane or the shell's
-    end the contact goes on). A row of touching points along the zone's edge (a saddle's horn) is then a strip
-    with the row in its middle, as a row inside is, and not cut off at the row."""
-    if touching is None:
-        return None
-    from scipy.spatial import cKDTree
-
-    sh = space.mesh.shell
-    pts = np.stack([operator.x[rows], sh.radius * operator.phi[rows]], axis=1)
-    _, near = cKDTree(pts).query(pts, k=min(9, len(pts)))
-    mirrored = (2.0 * pts[:, None, :] - pts[near]).reshape(-1, 2)
-    x, s = mirrored[:, 0], mirrored[:, 1]
-    on_shell = (x >= sh.x_min) & (x <= sh.x_max)
-    if not sh.full:
-        on_shell &= (s >= sh.s_min) & (s <= sh.s_max)
-    phi = np.mod(s / sh.radius, 2.0 * np.pi) if sh.full else s / sh.radius
-    outside = on_shell & ~(p.zone.contains(x, phi) & facing_body(space, p, x, s))
-    return np.vstack([pts, mirrored[outside]]), np.concatenate([touching, np.zeros(int(outside.sum()), bool)])
-
-
-def _class_field(pts: np.ndarray, touching: np.ndarray, X: np.ndarray, S: np.ndarray, period: float | None
-                 ) -> np.ndarray:
-    """The distance to the nearest touching point minus that to the nearest idle one (negative inside the
-    contact): continuous, its zero set the boundary of ``zone_points.nearest_point_class``, and as symmetric as
-    the points are (a 0/1 class contoured at ½ follows the sampling grid instead)."""
-    from scipy.spatial import cKDTree
-
-    q = np.column_stack([X.ravel(), S.ravel()])
-    far = 1e3 * float(np.ptp(q, axis=0).max() + np.ptp(pts, axis=0).max() + 1.0)
-    dist = []
-    for group in (pts[touching], pts[~touching]):
-        if period:
-            group = np.vstack([group + [0.0, -period], group, group + [0.0, period]])
-        dist.append(cKDTree(group).query(q)[0] if len(group) else np.full(len(q), far))
-    return (dist[0] - dist[1]).reshape(X.shape)
-
-
-def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float,
-               classes: tuple[np.ndarray, np.ndarray] | None = None) -> list[np.ndarray]:
-    """Polylines (n, 2) in (x, s) of the level Π = tol, closed along the candidate zone's edges; for a fixed
-    punch (``classes``: its constraint points and whether each touches) the zero set of ``_class_field``."""
+def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float
+               ) -> list[np.ndarray]:
+    """Polylines (n, 2) in (x, s) of the level Π = tol, closed along the candidate zone's edges."""
     import contourpy
 
     sh = space.mesh.shell
@@ -171,30 +124,17 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
                     p.zone.phi[0])
     x0, x1 = zone["x"]
     mx, mp = MARGIN * max(x1 - x0, 1e-9 * a), MARGIN * max(phi1 - phi0, 1e-9)
-    zx, zp = p.zone.x, interval
-    if classes is not None:  # the strip round a row of points on the zone's edge reaches past it
-        zx = (max(zx[0] - mx, sh.x_min), min(zx[1] + mx, sh.x_max))
-        full_round = sh.full and interval[1] - interval[0] >= sh.beta - sh.alpha - 1e-9
-        zp = zp if full_round else (interval[0] - mp, interval[1] + mp)
-        if not sh.full:
-            zp = (max(zp[0], sh.alpha), min(zp[1], sh.beta))
-    bx = (max(x0 - mx, zx[0]), min(x1 + mx, zx[1]))
-    bp = (max(phi0 - mp, zp[0]), min(phi1 + mp, zp[1]))
+    bx = (max(x0 - mx, p.zone.x[0]), min(x1 + mx, p.zone.x[1]))
+    bp = (max(phi0 - mp, interval[0]), min(phi1 + mp, interval[1]))
     nx, nphi = _sample_counts(space, bx, bp)
     xs, ps = np.linspace(*bx, nx), np.linspace(*bp, nphi)
     X, P = np.meshgrid(xs, ps)
-    if classes is not None:  # off the body its mirrored idle points close the zone
-        f = _class_field(*classes, X, a * P, 2.0 * np.pi * a if sh.full else None)
-        # a sample equidistant from a touching and an idle point (common on a mirror-symmetric mesh) is not on
-        # the line: the marching squares' choice at an exact 0 depends on the tracing direction, not the mirror
-        f -= 1e-6 * min(xs[1] - xs[0], a * (ps[1] - ps[0]))
-    else:
-        ops = space.point_operators(X.ravel(), a * P.ravel(), GAP_QUANTITIES)
-        fields = {q: op @ U for q, op in ops.items()}
-        f = (linearised_gap(sh, p, X.ravel(), P.ravel(), fields, step) - tol).reshape(X.shape)
-        # off a finite body (punch extent) nothing touches either
-        off = ~facing_body(space, p, X.ravel(), a * P.ravel()).reshape(X.shape)
-        f[off] = float(np.max(np.abs(f))) + 1.0
+    ops = space.point_operators(X.ravel(), a * P.ravel(), GAP_QUANTITIES)
+    fields = {q: op @ U for q, op in ops.items()}
+    f = (linearised_gap(sh, p, X.ravel(), P.ravel(), fields, step) - tol).reshape(X.shape)
+    # off a finite body (punch extent) nothing touches either
+    off = ~facing_body(space, p, X.ravel(), a * P.ravel()).reshape(X.shape)
+    f[off] = float(np.max(np.abs(f))) + 1.0
     # outside the candidate zone nothing touches: a border of "not touching" closes the rim along the zone's
     # edges — except across the seam of a zone that runs all the way round a full cylinder
     around = sh.full and interval[1] - interval[0] >= sh.beta - sh.alpha - 1e-9
@@ -206,16 +146,8 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
     if pad_p:
         ps = np.concatenate([[bp[0] - pad_p], ps, [bp[1] + pad_p]])
         f = np.pad(f, ((1, 1), (0, 0)), constant_values=big)
-    lines = [_without_repeats(np.asarray(ln, float)) for ln in contourpy.contour_generator(xs, a * ps, f).lines(0.0)]
-    return [line for line in lines if len(line) >= 2]
-
-
-def _without_repeats(line: np.ndarray) -> np.ndarray:
-    """The polyline without consecutive repeated points (a contour through a sample point repeats it), which
-    would give segments of zero length: no normal, and NaN in the arc-length derivatives."""
-    step = np.linalg.norm(np.diff(line, axis=0), axis=1)
-    scale = max(float(np.ptp(line, axis=0).max()), 1e-300)
-    return line[np.concatenate([[True], step > 1e-12 * scale])]
+    lines = contourpy.contour_generator(xs, a * ps, f).lines(0.0)
+    return [np.asarray(line, float) for line in lines if len(line) >= 2]
 
 
 def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, float]) -> tuple[int, int]:
