@@ -40,7 +40,7 @@ import numpy as np
 
 from ..shell.spaces import ShellSpace
 from .interior import interior_split
-from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
+from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
 
@@ -63,12 +63,17 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
     polylines (n, 2) in (x, s = aφ) where the line force acts, for the figures."""
     forced = [k for k, p in enumerate(punches) if p.mode == "force"]
     normal = np.linalg.norm(operator.grad, axis=0) * np.asarray(Lam, float)
+    row_gap = operator.gap(U, delta)
     out: list[dict | None] = []
     polylines: list[list[np.ndarray]] = []
     for k, (p, zone) in enumerate(zip(punches, zones)):
         rows = operator.rows(k)
         step = float(np.asarray(delta, float)[forced.index(k)]) if p.mode == "force" and delta is not None else None
-        lines = _rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"]) if "x" in zone else []
+        touching = None
+        if zone_tolerance(p, step) == 0.0:  # a fixed punch that only touches: its zone is where it carries
+            touching = (np.asarray(Lam, float)[rows] > 0.0) | (row_gap[rows] <= zone["gap_tolerance"])
+        lines = (_rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"],
+                            _points_of(space, p, operator, rows, touching)) if "x" in zone else [])
         polylines.append([])
         force = normal[rows].copy()
         if not np.any(force > 0.0):
@@ -95,7 +100,10 @@ def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi
                        _width_across(space, pts, np.tile([0.0, 1.0], (len(pts), 1))))
     sh = space.mesh.shell
     box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
-    clusters = point_force_clusters(pts, force[carrying], width, lines, space.mesh.p, space.mesh.t, box)
+    # a cluster inside a thin strip of outline is on a line (a saddle's horn only two elements wide), not a point
+    areas = [_enclosed_area([ln]) for ln in lines]
+    wide = [ln for ln, area in zip(lines, areas) if area is None or _perimeter(ln) ** 2 < 32.0 * area]
+    clusters = point_force_clusters(pts, force[carrying], width, wide, space.mesh.p, space.mesh.t, box)
     points = describe(space.mesh.shell, pts, force[carrying], clusters)
     for g in clusters:
         force[carrying[g]] = 0.0
@@ -112,9 +120,54 @@ def _only_points(points: list[dict], rest: np.ndarray, zone_area: float) -> dict
             "samples": [], "point_force": sum(q["force"] for q in points), "point_forces": points}
 
 
-def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float
-               ) -> list[np.ndarray]:
-    """Polylines (n, 2) in (x, s) of the level Π = tol, closed along the candidate zone's edges."""
+def _points_of(space: ShellSpace, p: Punch, operator: ContactOperator, rows: np.ndarray,
+               touching: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """A fixed punch's constraint points (n, 2) in (x, s) and whether each touches (None for a moving punch),
+    with idle points mirrored across the candidate zone's edges: each point's neighbours reflected through it
+    where that falls outside the zone or off the body, but on the shell (past a symmetry plane or the shell's
+    end the contact goes on). A row of touching points along the zone's edge (a saddle's horn) is then a strip
+    with the row in its middle, as a row inside is, and not cut off at the row."""
+    if touching is None:
+        return None
+    from scipy.spatial import cKDTree
+
+    sh = space.mesh.shell
+    pts = np.stack([operator.x[rows], sh.radius * operator.phi[rows]], axis=1)
+    tree = cKDTree(pts)
+    _, near = tree.query(pts, k=min(9, len(pts)))
+    mirrored = (2.0 * pts[:, None, :] - pts[near]).reshape(-1, 2)
+    reach = np.linalg.norm(pts[near] - pts[:, None, :], axis=2).ravel()
+    x, s = mirrored[:, 0], mirrored[:, 1]
+    new = tree.query(mirrored)[0] > 0.5 * reach  # not (to round-off) one of the points themselves
+    on_shell = (x >= sh.x_min) & (x <= sh.x_max)
+    if not sh.full:
+        on_shell &= (s >= sh.s_min) & (s <= sh.s_max)
+    phi = np.mod(s / sh.radius, 2.0 * np.pi) if sh.full else s / sh.radius
+    outside = new & on_shell & ~(p.zone.contains(x, phi) & facing_body(space, p, x, s))
+    return np.vstack([pts, mirrored[outside]]), np.concatenate([touching, np.zeros(int(outside.sum()), bool)])
+
+
+def _class_field(pts: np.ndarray, touching: np.ndarray, X: np.ndarray, S: np.ndarray, period: float | None
+                 ) -> np.ndarray:
+    """The distance to the nearest touching point minus that to the nearest idle one (negative inside the
+    contact): continuous, its zero set the boundary of ``zone_points.nearest_point_class``, and as symmetric as
+    the points are (a 0/1 class contoured at ½ follows the sampling grid instead)."""
+    from scipy.spatial import cKDTree
+
+    q = np.column_stack([X.ravel(), S.ravel()])
+    far = 1e3 * float(np.ptp(q, axis=0).max() + np.ptp(pts, axis=0).max() + 1.0)
+    dist = []
+    for group in (pts[touching], pts[~touching]):
+        if period:
+            group = np.vstack([group + [0.0, -period], group, group + [0.0, period]])
+        dist.append(cKDTree(group).query(q)[0] if len(group) else np.full(len(q), far))
+    return (dist[0] - dist[1]).reshape(X.shape)
+
+
+def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float,
+               classes: tuple[np.ndarray, np.ndarray] | None = None) -> list[np.ndarray]:
+    """Polylines (n, 2) in (x, s) of the level Π = tol, closed along the candidate zone's edges; for a fixed
+    punch (``classes``: its constraint points and whether each touches) the zero set of ``_class_field``."""
     import contourpy
 
     sh = space.mesh.shell
@@ -124,17 +177,30 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
                     p.zone.phi[0])
     x0, x1 = zone["x"]
     mx, mp = MARGIN * max(x1 - x0, 1e-9 * a), MARGIN * max(phi1 - phi0, 1e-9)
-    bx = (max(x0 - mx, p.zone.x[0]), min(x1 + mx, p.zone.x[1]))
-    bp = (max(phi0 - mp, interval[0]), min(phi1 + mp, interval[1]))
+    zx, zp = p.zone.x, interval
+    if classes is not None:  # the strip round a row of points on the zone's edge reaches past it
+        zx = (max(zx[0] - mx, sh.x_min), min(zx[1] + mx, sh.x_max))
+        full_round = sh.full and interval[1] - interval[0] >= sh.beta - sh.alpha - 1e-9
+        zp = zp if full_round else (interval[0] - mp, interval[1] + mp)
+        if not sh.full:
+            zp = (max(zp[0], sh.alpha), min(zp[1], sh.beta))
+    bx = (max(x0 - mx, zx[0]), min(x1 + mx, zx[1]))
+    bp = (max(phi0 - mp, zp[0]), min(phi1 + mp, zp[1]))
     nx, nphi = _sample_counts(space, bx, bp)
     xs, ps = np.linspace(*bx, nx), np.linspace(*bp, nphi)
     X, P = np.meshgrid(xs, ps)
-    ops = space.point_operators(X.ravel(), a * P.ravel(), GAP_QUANTITIES)
-    fields = {q: op @ U for q, op in ops.items()}
-    f = (linearised_gap(sh, p, X.ravel(), P.ravel(), fields, step) - tol).reshape(X.shape)
-    # off a finite body (punch extent) nothing touches either
-    off = ~facing_body(space, p, X.ravel(), a * P.ravel()).reshape(X.shape)
-    f[off] = float(np.max(np.abs(f))) + 1.0
+    if classes is not None:  # off the body its mirrored idle points close the zone
+        f = _class_field(*classes, X, a * P, 2.0 * np.pi * a if sh.full else None)
+        # a sample equidistant from a touching and an idle point (common on a mirror-symmetric mesh) is not on
+        # the line: at an exact 0 the marching squares' choice follows the grid's direction, not the mirror
+        f -= 1e-6 * min(xs[1] - xs[0], a * (ps[1] - ps[0]))
+    else:
+        ops = space.point_operators(X.ravel(), a * P.ravel(), GAP_QUANTITIES)
+        fields = {q: op @ U for q, op in ops.items()}
+        f = (linearised_gap(sh, p, X.ravel(), P.ravel(), fields, step) - tol).reshape(X.shape)
+        # off a finite body (punch extent) nothing touches either
+        off = ~facing_body(space, p, X.ravel(), a * P.ravel()).reshape(X.shape)
+        f[off] = float(np.max(np.abs(f))) + 1.0
     # outside the candidate zone nothing touches: a border of "not touching" closes the rim along the zone's
     # edges — except across the seam of a zone that runs all the way round a full cylinder
     around = sh.full and interval[1] - interval[0] >= sh.beta - sh.alpha - 1e-9
@@ -146,8 +212,16 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
     if pad_p:
         ps = np.concatenate([[bp[0] - pad_p], ps, [bp[1] + pad_p]])
         f = np.pad(f, ((1, 1), (0, 0)), constant_values=big)
-    lines = contourpy.contour_generator(xs, a * ps, f).lines(0.0)
-    return [np.asarray(line, float) for line in lines if len(line) >= 2]
+    lines = [_without_repeats(np.asarray(ln, float)) for ln in contourpy.contour_generator(xs, a * ps, f).lines(0.0)]
+    return [line for line in lines if len(line) >= 2]
+
+
+def _without_repeats(line: np.ndarray) -> np.ndarray:
+    """The polyline without consecutive repeated points (a contour through a sample point repeats it), which
+    would give segments of zero length: no normal, and NaN in the arc-length derivatives."""
+    step = np.linalg.norm(np.diff(line, axis=0), axis=1)
+    scale = max(float(np.ptp(line, axis=0).max()), 1e-300)
+    return line[np.concatenate([[True], step > 1e-12 * scale])]
 
 
 def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, float]) -> tuple[int, int]:
@@ -176,7 +250,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     total = float(force.sum())
     carrying = force > 0.0
     pts = np.stack([x[carrying], a * phi[carrying]], axis=1)
-    f = force[carrying]
+    f, w = force[carrying], weight[carrying]
     seg0 = np.concatenate([ln[:-1] for ln in lines])
     seg1 = np.concatenate([ln[1:] for ln in lines])
     seg_line = np.concatenate([np.full(len(ln) - 1, i) for i, ln in enumerate(lines)])
@@ -193,6 +267,15 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     if not sh.full:
         closure |= (np.abs(mid[:, 1] - sh.s_min) <= tol) | (np.abs(mid[:, 1] - sh.s_max) <= tol)
     j, t, depth = _nearest_segment(pts, seg0, seg1)
+    # a point as near to two stretches of the outline (the middle of a zone two elements wide, on a mirror-
+    # symmetric mesh) belongs half to each: which one the order of the segments picked would break the mirror
+    jt, tt, tied = _second_segment(pts, seg0, seg1, j, t, depth, 1e-9 * max(float(np.ptp(seg0, axis=0).max()), tol))
+    if tied.any():
+        twin = np.flatnonzero(tied)
+        pts, f, w = np.vstack([pts, pts[twin]]), np.concatenate([f, f[twin]]), np.concatenate([w, w[twin]])
+        f[twin], w[twin] = 0.5 * f[twin], 0.5 * w[twin]
+        f[len(tied):], w[len(tied):] = f[twin], w[twin]
+        j, t, depth = np.concatenate([j, jt[twin]]), np.concatenate([t, tt[twin]]), np.concatenate([depth, depth[twin]])
     if closure.any() and not closure.all():  # on a tie (a point on a corner) the segment that can carry a rim
         keep = np.flatnonzero(~closure)
         j2, t2, d2 = _nearest_segment(pts, seg0[keep], seg1[keep])
@@ -310,7 +393,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     interior_area = max(zone_area - inner_area, 0.0)
     rest = ~band & ~is_line[seg_line[j]]  # the interior's carrying rows: not on the rim's band or a line load
     idle = np.stack([x[~carrying], a * phi[~carrying]], axis=1)
-    split = interior_split(pts[rest], f[rest], weight[carrying][rest], np.maximum(across, along)[rest], idle,
+    split = interior_split(pts[rest], f[rest], w[rest], np.maximum(across, along)[rest], idle,
                            lambda p, d: _width_across(space, p, d))
     out = {"kind": "line" if line_parts and not _geometry_has_force(geometry) else "area", "length": length,
            "force": rim_force, "interior_force": interior,
@@ -405,6 +488,28 @@ def _nearest_segment(pts: np.ndarray, seg0: np.ndarray, seg1: np.ndarray,
     return j, t, dist
 
 
+def _second_segment(pts: np.ndarray, seg0: np.ndarray, seg1: np.ndarray, j: np.ndarray, t: np.ndarray,
+                    depth: np.ndarray, tol: float, chunk: int = 1024
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each point: the nearest segment whose nearest point differs from the one found (``j``, ``t``: not
+    the neighbour sharing a corner), its parameter, and whether it is as near (to ``tol``)."""
+    d = seg1 - seg0
+    len2 = np.maximum(np.einsum("sk,sk->s", d, d), 1e-300)
+    foot = seg0[j] + t[:, None] * d[j]
+    j2, t2, tied = np.zeros(len(pts), int), np.zeros(len(pts)), np.zeros(len(pts), bool)
+    for lo in range(0, len(pts), chunk):
+        q = pts[lo:lo + chunk, None, :] - seg0[None]
+        tt = np.clip(np.einsum("nsk,sk->ns", q, d) / len2, 0.0, 1.0)
+        near = seg0[None] + tt[..., None] * d[None]
+        dd = np.linalg.norm(pts[lo:lo + chunk, None, :] - near, axis=2)
+        dd[np.linalg.norm(near - foot[lo:lo + chunk, None, :], axis=2) <= 1e3 * tol] = np.inf
+        jj = np.argmin(dd, axis=1)
+        rows = np.arange(len(jj))
+        j2[lo:lo + chunk], t2[lo:lo + chunk] = jj, tt[rows, jj]
+        tied[lo:lo + chunk] = dd[rows, jj] <= depth[lo:lo + chunk] + tol
+    return j2, t2, tied
+
+
 def _width_across(space: ShellSpace, pts: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """The width (in x, s) of the elements at each point, measured along ``normal`` (unit, (n, 2)): the mesh's
     resolution across the rim, also on the long thin elements of a mesh graded in one direction. A point on a
@@ -450,6 +555,10 @@ def _enclosed_area(lines: list[np.ndarray]) -> float | None:
     return abs(total)
 
 
+def _perimeter(line: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
+
+
 def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep: list[np.ndarray],
                    delta: float) -> list[float]:
     """The length of each polyline's kept segments, where two stretches within ``delta`` of each other running
@@ -478,13 +587,18 @@ def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep
     P, dl, who, d = np.vstack(pts), np.concatenate(ds), np.concatenate(owner), np.vstack(direction)
     src, arc = np.vstack(source), np.concatenate(source_arc)
     pairs = cKDTree(P).query_pairs(delta, output_type="ndarray")
-    duplicate = np.zeros(len(P), bool)
+    paired = np.zeros(len(P), bool)
     if len(pairs):
         p, q = pairs[:, 0], pairs[:, 1]
         apart = np.linalg.norm(src[p] - src[q], axis=1)
         # the two sides of a sliver: close across, far along the outline (not a local fold of the offset line)
-        sides = (apart <= 2 * delta) & ((who[p] != who[q]) | (np.abs(arc[p] - arc[q]) > 2 * apart + delta))
+        along = np.abs(arc[p] - arc[q])
+        period = np.array([float(o_len.sum()) if np.allclose(ol[0], ol[-1]) else np.inf
+                           for ol in outlines for o_len in [np.linalg.norm(np.diff(ol, axis=0), axis=1)]])
+        along = np.minimum(along, period[who[p]] - along)  # round a closed outline: from wherever it starts
+        sides = (apart <= 2 * delta) & ((who[p] != who[q]) | (along > 2 * apart + delta))
         opposite = (np.einsum("nk,nk->n", d[p], d[q]) < -0.5) & sides
-        duplicate[np.maximum(p, q)[opposite]] = True
-    np.add.at(out, who[~duplicate], dl[~duplicate])
+        # each side counts half (dropping the later one of each pair depends on which way the lines were traced)
+        paired[p[opposite]] = paired[q[opposite]] = True
+    np.add.at(out, who, np.where(paired, 0.5, 1.0) * dl)
     return [float(v) for v in out]
