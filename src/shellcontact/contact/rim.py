@@ -39,6 +39,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..shell.spaces import ShellSpace
+from .fixed_outline import class_field, fixed_punch_points
 from .interior import interior_split
 from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
 from .point_forces import describe, point_force_clusters
@@ -73,7 +74,7 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
         if zone_tolerance(p, step) == 0.0:  # a fixed punch that only touches: its zone is where it carries
             touching = (np.asarray(Lam, float)[rows] > 0.0) | (row_gap[rows] <= zone["gap_tolerance"])
         lines = (_rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"],
-                            _points_of(space, p, operator, rows, touching)) if "x" in zone else [])
+                            fixed_punch_points(space, p, operator, rows, touching)) if "x" in zone else [])
         polylines.append([])
         force = normal[rows].copy()
         if not np.any(force > 0.0):
@@ -120,50 +121,6 @@ def _only_points(points: list[dict], rest: np.ndarray, zone_area: float) -> dict
             "samples": [], "point_force": sum(q["force"] for q in points), "point_forces": points}
 
 
-def _points_of(space: ShellSpace, p: Punch, operator: ContactOperator, rows: np.ndarray,
-               touching: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
-    """A fixed punch's constraint points (n, 2) in (x, s) and whether each touches (None for a moving punch),
-    with idle points mirrored across the candidate zone's edges: each point's neighbours reflected through it
-    where that falls outside the zone or off the body, but on the shell (past a symmetry plane or the shell's
-    end the contact goes on). A row of touching points along the zone's edge (a saddle's horn) is then a strip
-    with the row in its middle, as a row inside is, and not cut off at the row."""
-    if touching is None:
-        return None
-    from scipy.spatial import cKDTree
-
-    sh = space.mesh.shell
-    pts = np.stack([operator.x[rows], sh.radius * operator.phi[rows]], axis=1)
-    tree = cKDTree(pts)
-    _, near = tree.query(pts, k=min(9, len(pts)))
-    mirrored = (2.0 * pts[:, None, :] - pts[near]).reshape(-1, 2)
-    reach = np.linalg.norm(pts[near] - pts[:, None, :], axis=2).ravel()
-    x, s = mirrored[:, 0], mirrored[:, 1]
-    new = tree.query(mirrored)[0] > 0.5 * reach  # not (to round-off) one of the points themselves
-    on_shell = (x >= sh.x_min) & (x <= sh.x_max)
-    if not sh.full:
-        on_shell &= (s >= sh.s_min) & (s <= sh.s_max)
-    phi = np.mod(s / sh.radius, 2.0 * np.pi) if sh.full else s / sh.radius
-    outside = new & on_shell & ~(p.zone.contains(x, phi) & facing_body(space, p, x, s))
-    return np.vstack([pts, mirrored[outside]]), np.concatenate([touching, np.zeros(int(outside.sum()), bool)])
-
-
-def _class_field(pts: np.ndarray, touching: np.ndarray, X: np.ndarray, S: np.ndarray, period: float | None
-                 ) -> np.ndarray:
-    """The distance to the nearest touching point minus that to the nearest idle one (negative inside the
-    contact): continuous, its zero set the boundary of ``zone_points.nearest_point_class``, and as symmetric as
-    the points are (a 0/1 class contoured at ½ follows the sampling grid instead)."""
-    from scipy.spatial import cKDTree
-
-    q = np.column_stack([X.ravel(), S.ravel()])
-    far = 1e3 * float(np.ptp(q, axis=0).max() + np.ptp(pts, axis=0).max() + 1.0)
-    dist = []
-    for group in (pts[touching], pts[~touching]):
-        if period:
-            group = np.vstack([group + [0.0, -period], group, group + [0.0, period]])
-        dist.append(cKDTree(group).query(q)[0] if len(group) else np.full(len(q), far))
-    return (dist[0] - dist[1]).reshape(X.shape)
-
-
 def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float,
                classes: tuple[np.ndarray, np.ndarray] | None = None) -> list[np.ndarray]:
     """Polylines (n, 2) in (x, s) of the level Π = tol, closed along the candidate zone's edges; for a fixed
@@ -190,7 +147,7 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
     xs, ps = np.linspace(*bx, nx), np.linspace(*bp, nphi)
     X, P = np.meshgrid(xs, ps)
     if classes is not None:  # off the body its mirrored idle points close the zone
-        f = _class_field(*classes, X, a * P, 2.0 * np.pi * a if sh.full else None)
+        f = class_field(*classes, X, a * P, 2.0 * np.pi * a if sh.full else None)
         # a sample equidistant from a touching and an idle point (common on a mirror-symmetric mesh) is not on
         # the line: at an exact 0 the marching squares' choice follows the grid's direction, not the mirror
         f -= 1e-6 * min(xs[1] - xs[0], a * (ps[1] - ps[0]))
@@ -283,7 +240,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         j[better], t[better], depth[better] = keep[j2[better]], t2[better], d2[better]
     # the line's normal at each point's nearest point: the segment's, or at a vertex the mean of its two segments'
     # (a point nearest a corner has two nearest segments; this makes the choice not matter)
-    v_n = [_vertex_normals(ln, bool(np.allclose(ln[0], ln[-1]))) for ln in lines]
+    v_n = [_vertex_normals(ln, _round(ln, sh)) for ln in lines]
     n_start = np.concatenate([n[:-1] for n in v_n])
     n_end = np.concatenate([n[1:] for n in v_n])
     seg_dir = (seg1 - seg0) / np.maximum(seg_len, 1e-300)[:, None]
@@ -316,7 +273,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     band = np.zeros(len(f), bool)
     geometry = []
     for i, ln in enumerate(lines):
-        closed = bool(np.allclose(ln[0], ln[-1]))
+        closed = _round(ln, sh)
         mine = np.flatnonzero((seg_line[j] == i) & ~closure[j])
         if mine.size == 0 or is_line[i]:
             geometry.append((ln, None, closed))
@@ -351,14 +308,15 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         if not has.all():  # no band nearby: the neighbours' offset
             offset = np.interp(arc, arc[has], offset[has], period=period)
         rim = ln + offset[:, None] * n_v
-        if closed:
+        if np.allclose(ln[0], ln[-1]):
             rim[-1] = rim[0]
         rim_seg = np.linalg.norm(np.diff(rim, axis=0), axis=1)
         rim_arc = np.concatenate([[0.0], np.cumsum(rim_seg)])
         rim_lines.append(rim)
         rim_keep.append(~closure[seg_line == i])  # the closing segments carry no line force
         rim_outlines.append(ln)
-        per_line.append({"kind": "area", "length": 0.0, "force": float(f[sel].sum()), "mean_line_force": 0.0})
+        per_line.append({"kind": "area", "length": 0.0, "force": float(f[sel].sum()), "mean_line_force": 0.0,
+                         "closed": closed})
         inner_area += float(np.sum(0.5 * (np.abs(offset[1:]) + np.abs(offset[:-1])) * np.diff(arc)))
         # the line force: the band's forces smoothed along the line with a hat two element lengths wide (the vertex
         # and midpoint forces of a uniform load average out), per unit length of the rim (d rim_arc / d arc)
@@ -372,8 +330,9 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         density = _hat_sum(centres, where[sel], f[sel], half, period) / half
         density /= np.maximum(np.interp(centres, arc, stretch, period=period), 1e-12)
         on_rim = _points_at(rim, np.interp(centres, arc, rim_arc))
-        samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": float(v)}
-                    for c, v in zip(on_rim, density)]
+        samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a) % 360.0 if sh.full
+                                                 else math.degrees(c[1] / a)),
+                     "line_force": float(v), "line": len(per_line) - 1} for c, v in zip(on_rim, density)]
     # two stretches of the outline that the offset moves onto one line (the sides of a sliver of the zone along a
     # rim) are one rim: count its length once
     for entry, own in zip(per_line, _union_lengths(rim_lines, rim_outlines, rim_keep, 0.1 * float(np.median(across)))):
@@ -385,10 +344,10 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         length += part["length"]
         inner_area += part["area"]
         peak = max(peak, part["peak_line_force"])
-        samples += part["samples"]
+        samples += [{**q, "line": len(per_line)} for q in part["samples"]]
         rim_lines += polyline
         per_line.append({"kind": "line", "length": part["length"], "force": part["force"],
-                         "mean_line_force": part["mean_line_force"]})
+                         "mean_line_force": part["mean_line_force"], "closed": False})
     interior = max(total - rim_force, 0.0)
     interior_area = max(zone_area - inner_area, 0.0)
     rest = ~band & ~is_line[seg_line[j]]  # the interior's carrying rows: not on the rim's band or a line load
@@ -531,6 +490,15 @@ def _points_at(line: np.ndarray, arc: np.ndarray) -> np.ndarray:
     """Points of a polyline at the given arc lengths."""
     cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
     return np.stack([np.interp(arc, cum, line[:, 0]), np.interp(arc, cum, line[:, 1])], axis=1)
+
+
+def _round(line: np.ndarray, shell) -> bool:
+    """Whether a polyline closes on itself, also across the seam φ = 0/360° of a full cylinder (a line round it)."""
+    if np.allclose(line[0], line[-1]):
+        return True
+    tol = 1e-9 * shell.radius
+    return bool(shell.full and abs(line[0, 0] - line[-1, 0]) <= tol
+                and abs(abs(line[0, 1] - line[-1, 1]) - 2.0 * np.pi * shell.radius) <= tol)
 
 
 def _vertex_normals(line: np.ndarray, closed: bool) -> np.ndarray:
