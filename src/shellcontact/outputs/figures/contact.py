@@ -233,6 +233,8 @@ def rim_line_profiles(rim: dict, radius: float, period: float | None) -> list[tu
             step[:, 1] = (step[:, 1] + 0.5 * period) % period - 0.5 * period
         arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(step, axis=1))])
         q = np.array([s["line_force"] for s in samples])
+        if not closed and i < len(per_line) and per_line[i].get("kind") == "line":  # bin centres on the line
+            arc = arc + 0.5 * max(per_line[i]["length"] - arc[-1], 0.0)
         out.append((arc, np.append(q, q[0]) if closed else q))
     return out
 
