@@ -34,7 +34,7 @@ Lengths are measured on the middle surface (x, s = aφ).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -84,11 +84,24 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
         if not lines or not np.any(force > 0.0):  # no outline, or all of the force at points
             out.append(_only_points(points, force, zone["area"]) if points else None)
             continue
+        # a fixed punch's outline reaches half a point spacing past a row of points on the body's edge
+        on_body = _body_test(space, p) if touching is not None else None
         entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, operator.weights[rows],
-                                 zone["area"])
+                                 zone["area"], on_body)
         polylines[-1] = rim
         out.append({**entry, "point_force": sum(q["force"] for q in points), "point_forces": points})
     return out, polylines
+
+
+def _body_test(space: ShellSpace, p: Punch) -> Callable[[np.ndarray], np.ndarray]:
+    """Whether points (n, 2) in (x, s) lie in the punch's zone, facing its body."""
+    sh = space.mesh.shell
+
+    def test(q: np.ndarray) -> np.ndarray:
+        phi = q[:, 1] / sh.radius
+        phi = np.mod(phi, 2.0 * np.pi) if sh.full else phi
+        return p.zone.contains(q[:, 0], phi) & facing_body(space, p, q[:, 0], q[:, 1])
+    return test
 
 
 def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
@@ -200,9 +213,11 @@ def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, 
 
 
 def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
-                force: np.ndarray, weight: np.ndarray, zone_area: float) -> dict:
+                force: np.ndarray, weight: np.ndarray, zone_area: float,
+                on_body: Callable[[np.ndarray], np.ndarray] | None = None) -> dict:
     """The decomposition of one punch's normal force (module docstring): a line contact's ``line_load``, or the
-    rim's line force and the interior (``interior.interior_split``); ``weight``: the rows' ωᵢ."""
+    rim's line force and the interior (``interior.interior_split``); ``weight``: the rows' ωᵢ; ``on_body``:
+    for a fixed punch, whether points (n, 2) in (x, s) face its body within its zone."""
     a = space.mesh.shell.radius
     total = float(force.sum())
     carrying = force > 0.0
@@ -263,7 +278,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         if LINE_CONTACT <= mean_depth / (0.5 * thickness) <= 1.0 / LINE_CONTACT and line_len[i] >= 16.0 * thickness:
             is_line[i] = True
             line_parts.append(_line_contact(space, pts[mine], f[mine], enclosed, float(line_len[i]),
-                                            float(f[mine].sum())))
+                                            float(f[mine].sum()), on_body))
     where = start[j] + t * seg_len[j]  # arc length along the nearest level line
     # signed offset of each point from its line (the sign of the line's left normal): the rim's offset below is a
     # mean of these, so it does not depend on which way round or from where a line was traced (mirror images
@@ -397,9 +412,12 @@ def _hat_sum(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: float,
 
 
 def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: float, perimeter: float,
-                  total: float) -> tuple[dict, list[np.ndarray]]:
+                  total: float, on_body: Callable[[np.ndarray], np.ndarray] | None = None
+                  ) -> tuple[dict, list[np.ndarray]]:
     """A zone that is a thin strip round the force (a plate on a pipe): the line load along its middle line,
-    whose length follows from the strip's perimeter P and area A as the long side of a P, A rectangle."""
+    whose length follows from the strip's perimeter P and area A as the long side of a P, A rectangle. A fixed
+    punch's strip (``on_body``) reaches half a point spacing past its end rows; where that is off the body (a
+    saddle's horn ends at its faces) the line ends at the end row."""
     length = 0.5 * (0.5 * perimeter + math.sqrt(max(0.25 * perimeter ** 2 - 4.0 * zone_area, 0.0)))
     c = np.average(pts, axis=0, weights=f)
     e = np.array([1.0, 0.0])
@@ -411,6 +429,10 @@ def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: 
     a = space.mesh.shell.radius
     half = 2.0 * float(np.median(_width_across(space, pts, np.tile(e, (len(pts), 1)))))  # two element lengths
     lo, hi = float(s.min()), float(s.max())
+    if on_body is not None and length > hi - lo:
+        over = 0.5 * (length - (hi - lo))
+        past = np.stack([c + (lo - over) * e, c + (hi + over) * e])
+        length -= over * float(np.count_nonzero(~on_body(past)))
     if not hi - lo > 0.0 or not half > 0.0:  # the forces at one point: one sample, the mean
         sample = [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": total / length}]
         return ({"length": length, "force": total, "area": zone_area, "peak_line_force": total / length,
