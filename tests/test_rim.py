@@ -160,6 +160,17 @@ def test_band_rim_runs_round_the_pipe():
         assert max(q) / min(q) - 1 <= 5e-3
     inner = sorted(line["force"] for line in rim["per_line"])[:2]
     assert inner[0] == pytest.approx(inner[1], rel=1e-6)  # mirror images (x → −x) of each other
+    # pressure.png colours each line by its own samples (before: by the nearest sample of any line, so the band's
+    # edges alternated between 164 and 44 kN/m round the pipe)
+    from matplotlib.collections import LineCollection
+
+    from shellcontact.outputs.figures.contact import plot_pressure
+
+    lc = next(c for c in plot_pressure(res).axes[0].collections if isinstance(c, LineCollection))
+    edge = max(line["mean_line_force"] for line in rim["per_line"])  # 164.4 kN/m at x = ±15 mm
+    strip = min(line["mean_line_force"] for line in rim["per_line"])  # 44.2 kN/m round x = 0
+    for segment, value in zip(lc.get_segments(), lc.get_array()):
+        assert value == pytest.approx(edge if abs(segment[:, 0].mean()) > 0.01 else strip, rel=5e-3)
     circles = rim["length"] / (2 * math.pi * a)
     print(f"\n band clamp: rim {rim['length']:.6f} m = {circles:.5f} circles, {rim['lines']} lines, "
           f"rim force {rim['force']:.6g} of {e['total_normal_force']:.6g}")

@@ -90,18 +90,25 @@ def _rim_headline(result, rim: dict | None) -> str:
 
 
 def _draw_line_force(ax, fig, result, rim: dict | None, lines: list[np.ndarray]) -> bool:
-    """The rim's polylines coloured by the line force (N/m) of the nearest sample, with its own colour bar."""
+    """The rim's polylines coloured by the line force (N/m) of the nearest of their own samples (polyline i is
+    ``per_line`` i), with its own colour bar."""
     if not rim or not rim.get("samples") or not lines:
         return False
     a = result.solution.shell.radius
-    sx = np.array([s["x"] for s in rim["samples"]])
-    ss = np.radians([s["phi"] for s in rim["samples"]]) * a
-    q = np.array([s["line_force"] for s in rim["samples"]])
+    samples = rim["samples"]
+    owner = np.array([s.get("line", -1) for s in samples])
     segments, values = [], []
-    for ln in lines:
+    for i, ln in enumerate(lines):
+        own = [s for s, k in zip(samples, owner) if k == i] or samples  # the line's own samples (polyline i)
+        sx = np.array([s["x"] for s in own])
+        ss = np.radians([s["phi"] for s in own]) * a
+        q = np.array([s["line_force"] for s in own])
         pts = np.stack([ln[:, 0], np.degrees(ln[:, 1] / a)], axis=1)
         mid = 0.5 * (ln[1:] + ln[:-1])
-        nearest = np.argmin((mid[:, 0, None] - sx[None]) ** 2 + (mid[:, 1, None] - ss[None]) ** 2, axis=1)
+        ds = np.abs(mid[:, 1, None] - ss[None])
+        if result.solution.shell.full:  # samples' φ lie in [0, 360°): the short way round the seam
+            ds = np.minimum(ds, 2.0 * math.pi * a - ds)
+        nearest = np.argmin((mid[:, 0, None] - sx[None]) ** 2 + ds ** 2, axis=1)
         segments += [pts[i:i + 2] for i in range(len(pts) - 1)]
         values += list(q[nearest])
     lc = LineCollection(segments, cmap="viridis", linewidths=3.5)
