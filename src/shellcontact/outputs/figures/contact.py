@@ -267,7 +267,7 @@ def plot_pressure_profiles(
         for k, rim in rims:
             colour = None
             for arc, q in rim_line_profiles(rim, a, period):
-                line = ax.plot(arc, q, "-", color=colour,
+                line = ax.plot(arc, q, "-" if len(q) > 1 else "o", color=colour,  # one sample: a line load's mean
                                label=None if colour else f"punch {k}: {_rim_headline(result, rim)}")[0]
                 colour = line.get_color()
             ax.axhline(rim["mean_line_force"], color=colour, ls="--", lw=0.8)
