@@ -429,7 +429,7 @@ def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: 
     a = space.mesh.shell.radius
     half = 2.0 * float(np.median(_width_across(space, pts, np.tile(e, (len(pts), 1)))))  # two element lengths
     lo, hi = float(s.min()), float(s.max())
-    if on_body is not None and length > hi - lo:
+    if on_body is not None and length > hi - lo > 0.0:  # (a strip round one point keeps its length)
         over = 0.5 * (length - (hi - lo))
         past = np.stack([c + (lo - over) * e, c + (hi + over) * e])
         length -= over * float(np.count_nonzero(~on_body(past)))
