@@ -556,11 +556,14 @@ def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep
     the zone along a rim, which the offset puts onto one line (not a rim's two arms near a sharp end)."""
     from scipy.spatial import cKDTree
 
-    pts, ds, owner, direction, source, source_arc = [], [], [], [], [], []
+    pts, ds, owner, direction, source, source_arc, periods = [], [], [], [], [], [], []
     for i, (pl, ol, kept) in enumerate(zip(polylines, outlines, keep)):
         seg = np.diff(pl, axis=0)
         lengths = np.linalg.norm(seg, axis=1)
         o_len = np.linalg.norm(np.diff(ol, axis=0), axis=1)
+        # along the outline, a closing stretch (the shell's edge) parts two sides as much as the rest of it does
+        o_len = np.where(kept, o_len, o_len.sum() + 1.0)
+        periods.append(float(o_len.sum()) if np.allclose(ol[0], ol[-1]) else np.inf)
         o_start = np.concatenate([[0.0], np.cumsum(o_len)[:-1]])
         for k in np.flatnonzero(kept & (lengths > 0)):
             n = max(1, math.ceil(lengths[k] / (0.5 * delta)))
@@ -583,12 +586,9 @@ def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep
         apart = np.linalg.norm(src[p] - src[q], axis=1)
         # the two sides of a sliver: close across, far along the outline (not a local fold of the offset line)
         along = np.abs(arc[p] - arc[q])
-        period = np.array([float(o_len.sum()) if np.allclose(ol[0], ol[-1]) else np.inf
-                           for ol in outlines for o_len in [np.linalg.norm(np.diff(ol, axis=0), axis=1)]])
-        along = np.minimum(along, period[who[p]] - along)  # round a closed outline: from wherever it starts
+        along = np.minimum(along, np.asarray(periods)[who[p]] - along)  # round a closed outline, from anywhere
         sides = (apart <= 2 * delta) & ((who[p] != who[q]) | (along > 2 * apart + delta))
         opposite = (np.einsum("nk,nk->n", d[p], d[q]) < -0.5) & sides
-        # each side counts half (dropping the later one of each pair depends on which way the lines were traced)
-        paired[p[opposite]] = paired[q[opposite]] = True
-    np.add.at(out, who, np.where(paired, 0.5, 1.0) * dl)
+        paired[np.maximum(p, q)[opposite]] = True
+    np.add.at(out, who[~paired], dl[~paired])
     return [float(v) for v in out]
