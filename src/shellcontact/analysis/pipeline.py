@@ -303,10 +303,7 @@ def contact_result(case: Case, d: Discretization, opts: SolverOptions, timer: Ti
 
         def derive() -> tuple[list, list, list]:
             zone = contact_zone(space, punches, U, delta, carrying=(op, Lam, op.gap(U, delta)))
-            # the rim's outline stays the gap's level line over that zone's box (rim.py: on the wider box of a
-            # fixed punch's carrying zone its arc length repeats points and np.gradient gives NaN)
-            outline = contact_zone(space, punches, U, delta) if any(p.mode == "fixed" for p in punches) else zone
-            rim, lines = rim_line_force(space, punches, op, Lam, U, delta, outline)
+            rim, lines = rim_line_force(space, punches, op, Lam, U, delta, zone)
             return zone, rim, lines
 
         contact = ContactResult(operator=op, solution=cs, Lambda=Lam, active=active,

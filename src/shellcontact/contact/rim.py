@@ -34,13 +34,14 @@ Lengths are measured on the middle surface (x, s = aφ).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ..shell.spaces import ShellSpace
+from .fixed_outline import class_field, fixed_punch_points
 from .interior import interior_split
-from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap
+from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
 
@@ -63,12 +64,17 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
     polylines (n, 2) in (x, s = aφ) where the line force acts, for the figures."""
     forced = [k for k, p in enumerate(punches) if p.mode == "force"]
     normal = np.linalg.norm(operator.grad, axis=0) * np.asarray(Lam, float)
+    row_gap = operator.gap(U, delta)
     out: list[dict | None] = []
     polylines: list[list[np.ndarray]] = []
     for k, (p, zone) in enumerate(zip(punches, zones)):
         rows = operator.rows(k)
         step = float(np.asarray(delta, float)[forced.index(k)]) if p.mode == "force" and delta is not None else None
-        lines = _rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"]) if "x" in zone else []
+        touching = None
+        if zone_tolerance(p, step) == 0.0:  # a fixed punch that only touches: its zone is where it carries
+            touching = (np.asarray(Lam, float)[rows] > 0.0) | (row_gap[rows] <= zone["gap_tolerance"])
+        lines = (_rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"],
+                            fixed_punch_points(space, p, operator, rows, touching)) if "x" in zone else [])
         polylines.append([])
         force = normal[rows].copy()
         if not np.any(force > 0.0):
@@ -78,11 +84,24 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
         if not lines or not np.any(force > 0.0):  # no outline, or all of the force at points
             out.append(_only_points(points, force, zone["area"]) if points else None)
             continue
+        # a fixed punch's outline reaches half a point spacing past a row of points on the body's edge
+        on_body = _body_test(space, p) if touching is not None else None
         entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, operator.weights[rows],
-                                 zone["area"])
+                                 zone["area"], on_body)
         polylines[-1] = rim
         out.append({**entry, "point_force": sum(q["force"] for q in points), "point_forces": points})
     return out, polylines
+
+
+def _body_test(space: ShellSpace, p: Punch) -> Callable[[np.ndarray], np.ndarray]:
+    """Whether points (n, 2) in (x, s) lie in the punch's zone, facing its body."""
+    sh = space.mesh.shell
+
+    def test(q: np.ndarray) -> np.ndarray:
+        phi = q[:, 1] / sh.radius
+        phi = np.mod(phi, 2.0 * np.pi) if sh.full else phi
+        return p.zone.contains(q[:, 0], phi) & facing_body(space, p, q[:, 0], q[:, 1])
+    return test
 
 
 def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
@@ -95,7 +114,10 @@ def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi
                        _width_across(space, pts, np.tile([0.0, 1.0], (len(pts), 1))))
     sh = space.mesh.shell
     box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
-    clusters = point_force_clusters(pts, force[carrying], width, lines, space.mesh.p, space.mesh.t, box)
+    # a cluster inside a thin strip of outline is on a line (a saddle's horn only two elements wide), not a point
+    areas = [_enclosed_area([ln]) for ln in lines]
+    wide = [ln for ln, area in zip(lines, areas) if area is None or _perimeter(ln) ** 2 < 32.0 * area]
+    clusters = point_force_clusters(pts, force[carrying], width, wide, space.mesh.p, space.mesh.t, box)
     points = describe(space.mesh.shell, pts, force[carrying], clusters)
     for g in clusters:
         force[carrying[g]] = 0.0
@@ -112,9 +134,10 @@ def _only_points(points: list[dict], rest: np.ndarray, zone_area: float) -> dict
             "samples": [], "point_force": sum(q["force"] for q in points), "point_forces": points}
 
 
-def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float
-               ) -> list[np.ndarray]:
-    """Polylines (n, 2) in (x, s) of the level Π = tol, closed along the candidate zone's edges."""
+def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: float, tol: float,
+               classes: tuple[np.ndarray, np.ndarray] | None = None) -> list[np.ndarray]:
+    """Polylines (n, 2) in (x, s) of the level Π = tol, closed along the candidate zone's edges; for a fixed
+    punch (``classes``: its constraint points and whether each touches) the zero set of ``_class_field``."""
     import contourpy
 
     sh = space.mesh.shell
@@ -124,17 +147,30 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
                     p.zone.phi[0])
     x0, x1 = zone["x"]
     mx, mp = MARGIN * max(x1 - x0, 1e-9 * a), MARGIN * max(phi1 - phi0, 1e-9)
-    bx = (max(x0 - mx, p.zone.x[0]), min(x1 + mx, p.zone.x[1]))
-    bp = (max(phi0 - mp, interval[0]), min(phi1 + mp, interval[1]))
+    zx, zp = p.zone.x, interval
+    if classes is not None:  # the strip round a row of points on the zone's edge reaches past it
+        zx = (max(zx[0] - mx, sh.x_min), min(zx[1] + mx, sh.x_max))
+        full_round = sh.full and interval[1] - interval[0] >= sh.beta - sh.alpha - 1e-9
+        zp = zp if full_round else (interval[0] - mp, interval[1] + mp)
+        if not sh.full:
+            zp = (max(zp[0], sh.alpha), min(zp[1], sh.beta))
+    bx = (max(x0 - mx, zx[0]), min(x1 + mx, zx[1]))
+    bp = (max(phi0 - mp, zp[0]), min(phi1 + mp, zp[1]))
     nx, nphi = _sample_counts(space, bx, bp)
     xs, ps = np.linspace(*bx, nx), np.linspace(*bp, nphi)
     X, P = np.meshgrid(xs, ps)
-    ops = space.point_operators(X.ravel(), a * P.ravel(), GAP_QUANTITIES)
-    fields = {q: op @ U for q, op in ops.items()}
-    f = (linearised_gap(sh, p, X.ravel(), P.ravel(), fields, step) - tol).reshape(X.shape)
-    # off a finite body (punch extent) nothing touches either
-    off = ~facing_body(space, p, X.ravel(), a * P.ravel()).reshape(X.shape)
-    f[off] = float(np.max(np.abs(f))) + 1.0
+    if classes is not None:  # off the body its mirrored idle points close the zone
+        f = class_field(*classes, X, a * P, 2.0 * np.pi * a if sh.full else None)
+        # a sample equidistant from a touching and an idle point (common on a mirror-symmetric mesh) is not on
+        # the line: at an exact 0 the marching squares' choice follows the grid's direction, not the mirror
+        f -= 1e-6 * min(xs[1] - xs[0], a * (ps[1] - ps[0]))
+    else:
+        ops = space.point_operators(X.ravel(), a * P.ravel(), GAP_QUANTITIES)
+        fields = {q: op @ U for q, op in ops.items()}
+        f = (linearised_gap(sh, p, X.ravel(), P.ravel(), fields, step) - tol).reshape(X.shape)
+        # off a finite body (punch extent) nothing touches either
+        off = ~facing_body(space, p, X.ravel(), a * P.ravel()).reshape(X.shape)
+        f[off] = float(np.max(np.abs(f))) + 1.0
     # outside the candidate zone nothing touches: a border of "not touching" closes the rim along the zone's
     # edges — except across the seam of a zone that runs all the way round a full cylinder
     around = sh.full and interval[1] - interval[0] >= sh.beta - sh.alpha - 1e-9
@@ -146,8 +182,16 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
     if pad_p:
         ps = np.concatenate([[bp[0] - pad_p], ps, [bp[1] + pad_p]])
         f = np.pad(f, ((1, 1), (0, 0)), constant_values=big)
-    lines = contourpy.contour_generator(xs, a * ps, f).lines(0.0)
-    return [np.asarray(line, float) for line in lines if len(line) >= 2]
+    lines = [_without_repeats(np.asarray(ln, float)) for ln in contourpy.contour_generator(xs, a * ps, f).lines(0.0)]
+    return [line for line in lines if len(line) >= 2]
+
+
+def _without_repeats(line: np.ndarray) -> np.ndarray:
+    """The polyline without consecutive repeated points (a contour through a sample point repeats it), which
+    would give segments of zero length: no normal, and NaN in the arc-length derivatives."""
+    step = np.linalg.norm(np.diff(line, axis=0), axis=1)
+    scale = max(float(np.ptp(line, axis=0).max()), 1e-300)
+    return line[np.concatenate([[True], step > 1e-12 * scale])]
 
 
 def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, float]) -> tuple[int, int]:
@@ -169,14 +213,16 @@ def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, 
 
 
 def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
-                force: np.ndarray, weight: np.ndarray, zone_area: float) -> dict:
+                force: np.ndarray, weight: np.ndarray, zone_area: float,
+                on_body: Callable[[np.ndarray], np.ndarray] | None = None) -> dict:
     """The decomposition of one punch's normal force (module docstring): a line contact's ``line_load``, or the
-    rim's line force and the interior (``interior.interior_split``); ``weight``: the rows' ωᵢ."""
+    rim's line force and the interior (``interior.interior_split``); ``weight``: the rows' ωᵢ; ``on_body``:
+    for a fixed punch, whether points (n, 2) in (x, s) face its body within its zone."""
     a = space.mesh.shell.radius
     total = float(force.sum())
     carrying = force > 0.0
     pts = np.stack([x[carrying], a * phi[carrying]], axis=1)
-    f = force[carrying]
+    f, w = force[carrying], weight[carrying]
     seg0 = np.concatenate([ln[:-1] for ln in lines])
     seg1 = np.concatenate([ln[1:] for ln in lines])
     seg_line = np.concatenate([np.full(len(ln) - 1, i) for i, ln in enumerate(lines)])
@@ -193,6 +239,15 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     if not sh.full:
         closure |= (np.abs(mid[:, 1] - sh.s_min) <= tol) | (np.abs(mid[:, 1] - sh.s_max) <= tol)
     j, t, depth = _nearest_segment(pts, seg0, seg1)
+    # a point as near to two stretches of the outline (the middle of a zone two elements wide, on a mirror-
+    # symmetric mesh) belongs half to each: which one the order of the segments picked would break the mirror
+    jt, tt, tied = _second_segment(pts, seg0, seg1, j, t, depth, 1e-9 * max(float(np.ptp(seg0, axis=0).max()), tol))
+    if tied.any():
+        twin = np.flatnonzero(tied)
+        pts, f, w = np.vstack([pts, pts[twin]]), np.concatenate([f, f[twin]]), np.concatenate([w, w[twin]])
+        f[twin], w[twin] = 0.5 * f[twin], 0.5 * w[twin]
+        f[len(tied):], w[len(tied):] = f[twin], w[twin]
+        j, t, depth = np.concatenate([j, jt[twin]]), np.concatenate([t, tt[twin]]), np.concatenate([depth, depth[twin]])
     if closure.any() and not closure.all():  # on a tie (a point on a corner) the segment that can carry a rim
         keep = np.flatnonzero(~closure)
         j2, t2, d2 = _nearest_segment(pts, seg0[keep], seg1[keep])
@@ -200,7 +255,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         j[better], t[better], depth[better] = keep[j2[better]], t2[better], d2[better]
     # the line's normal at each point's nearest point: the segment's, or at a vertex the mean of its two segments'
     # (a point nearest a corner has two nearest segments; this makes the choice not matter)
-    v_n = [_vertex_normals(ln, bool(np.allclose(ln[0], ln[-1]))) for ln in lines]
+    v_n = [_vertex_normals(ln, _round(ln, sh)) for ln in lines]
     n_start = np.concatenate([n[:-1] for n in v_n])
     n_end = np.concatenate([n[1:] for n in v_n])
     seg_dir = (seg1 - seg0) / np.maximum(seg_len, 1e-300)[:, None]
@@ -223,7 +278,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         if LINE_CONTACT <= mean_depth / (0.5 * thickness) <= 1.0 / LINE_CONTACT and line_len[i] >= 16.0 * thickness:
             is_line[i] = True
             line_parts.append(_line_contact(space, pts[mine], f[mine], enclosed, float(line_len[i]),
-                                            float(f[mine].sum())))
+                                            float(f[mine].sum()), on_body))
     where = start[j] + t * seg_len[j]  # arc length along the nearest level line
     # signed offset of each point from its line (the sign of the line's left normal): the rim's offset below is a
     # mean of these, so it does not depend on which way round or from where a line was traced (mirror images
@@ -233,7 +288,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     band = np.zeros(len(f), bool)
     geometry = []
     for i, ln in enumerate(lines):
-        closed = bool(np.allclose(ln[0], ln[-1]))
+        closed = _round(ln, sh)
         mine = np.flatnonzero((seg_line[j] == i) & ~closure[j])
         if mine.size == 0 or is_line[i]:
             geometry.append((ln, None, closed))
@@ -268,14 +323,15 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         if not has.all():  # no band nearby: the neighbours' offset
             offset = np.interp(arc, arc[has], offset[has], period=period)
         rim = ln + offset[:, None] * n_v
-        if closed:
+        if np.allclose(ln[0], ln[-1]):
             rim[-1] = rim[0]
         rim_seg = np.linalg.norm(np.diff(rim, axis=0), axis=1)
         rim_arc = np.concatenate([[0.0], np.cumsum(rim_seg)])
         rim_lines.append(rim)
         rim_keep.append(~closure[seg_line == i])  # the closing segments carry no line force
         rim_outlines.append(ln)
-        per_line.append({"kind": "area", "length": 0.0, "force": float(f[sel].sum()), "mean_line_force": 0.0})
+        per_line.append({"kind": "area", "length": 0.0, "force": float(f[sel].sum()), "mean_line_force": 0.0,
+                         "closed": closed})
         inner_area += float(np.sum(0.5 * (np.abs(offset[1:]) + np.abs(offset[:-1])) * np.diff(arc)))
         # the line force: the band's forces smoothed along the line with a hat two element lengths wide (the vertex
         # and midpoint forces of a uniform load average out), per unit length of the rim (d rim_arc / d arc)
@@ -289,8 +345,9 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         density = _hat_sum(centres, where[sel], f[sel], half, period) / half
         density /= np.maximum(np.interp(centres, arc, stretch, period=period), 1e-12)
         on_rim = _points_at(rim, np.interp(centres, arc, rim_arc))
-        samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": float(v)}
-                    for c, v in zip(on_rim, density)]
+        samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a) % 360.0 if sh.full
+                                                 else math.degrees(c[1] / a)),
+                     "line_force": float(v), "line": len(per_line) - 1} for c, v in zip(on_rim, density)]
     # two stretches of the outline that the offset moves onto one line (the sides of a sliver of the zone along a
     # rim) are one rim: count its length once
     for entry, own in zip(per_line, _union_lengths(rim_lines, rim_outlines, rim_keep, 0.1 * float(np.median(across)))):
@@ -302,15 +359,15 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         length += part["length"]
         inner_area += part["area"]
         peak = max(peak, part["peak_line_force"])
-        samples += part["samples"]
+        samples += [{**q, "line": len(per_line)} for q in part["samples"]]
         rim_lines += polyline
         per_line.append({"kind": "line", "length": part["length"], "force": part["force"],
-                         "mean_line_force": part["mean_line_force"]})
+                         "mean_line_force": part["mean_line_force"], "closed": False})
     interior = max(total - rim_force, 0.0)
     interior_area = max(zone_area - inner_area, 0.0)
     rest = ~band & ~is_line[seg_line[j]]  # the interior's carrying rows: not on the rim's band or a line load
     idle = np.stack([x[~carrying], a * phi[~carrying]], axis=1)
-    split = interior_split(pts[rest], f[rest], weight[carrying][rest], np.maximum(across, along)[rest], idle,
+    split = interior_split(pts[rest], f[rest], w[rest], np.maximum(across, along)[rest], idle,
                            lambda p, d: _width_across(space, p, d))
     out = {"kind": "line" if line_parts and not _geometry_has_force(geometry) else "area", "length": length,
            "force": rim_force, "interior_force": interior,
@@ -355,9 +412,12 @@ def _hat_sum(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: float,
 
 
 def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: float, perimeter: float,
-                  total: float) -> tuple[dict, list[np.ndarray]]:
+                  total: float, on_body: Callable[[np.ndarray], np.ndarray] | None = None
+                  ) -> tuple[dict, list[np.ndarray]]:
     """A zone that is a thin strip round the force (a plate on a pipe): the line load along its middle line,
-    whose length follows from the strip's perimeter P and area A as the long side of a P, A rectangle."""
+    whose length follows from the strip's perimeter P and area A as the long side of a P, A rectangle. A fixed
+    punch's strip (``on_body``) reaches half a point spacing past its end rows; where that is off the body (a
+    saddle's horn ends at its faces) the line ends at the end row."""
     length = 0.5 * (0.5 * perimeter + math.sqrt(max(0.25 * perimeter ** 2 - 4.0 * zone_area, 0.0)))
     c = np.average(pts, axis=0, weights=f)
     e = np.array([1.0, 0.0])
@@ -369,6 +429,10 @@ def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: 
     a = space.mesh.shell.radius
     half = 2.0 * float(np.median(_width_across(space, pts, np.tile(e, (len(pts), 1)))))  # two element lengths
     lo, hi = float(s.min()), float(s.max())
+    if on_body is not None and length > hi - lo > 0.0:  # (a strip round one point keeps its length)
+        over = 0.5 * (length - (hi - lo))
+        past = np.stack([c + (lo - over) * e, c + (hi + over) * e])
+        length -= over * float(np.count_nonzero(~on_body(past)))
     if not hi - lo > 0.0 or not half > 0.0:  # the forces at one point: one sample, the mean
         sample = [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": total / length}]
         return ({"length": length, "force": total, "area": zone_area, "peak_line_force": total / length,
@@ -405,6 +469,28 @@ def _nearest_segment(pts: np.ndarray, seg0: np.ndarray, seg1: np.ndarray,
     return j, t, dist
 
 
+def _second_segment(pts: np.ndarray, seg0: np.ndarray, seg1: np.ndarray, j: np.ndarray, t: np.ndarray,
+                    depth: np.ndarray, tol: float, chunk: int = 1024
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each point: the nearest segment whose nearest point differs from the one found (``j``, ``t``: not
+    the neighbour sharing a corner), its parameter, and whether it is as near (to ``tol``)."""
+    d = seg1 - seg0
+    len2 = np.maximum(np.einsum("sk,sk->s", d, d), 1e-300)
+    foot = seg0[j] + t[:, None] * d[j]
+    j2, t2, tied = np.zeros(len(pts), int), np.zeros(len(pts)), np.zeros(len(pts), bool)
+    for lo in range(0, len(pts), chunk):
+        q = pts[lo:lo + chunk, None, :] - seg0[None]
+        tt = np.clip(np.einsum("nsk,sk->ns", q, d) / len2, 0.0, 1.0)
+        near = seg0[None] + tt[..., None] * d[None]
+        dd = np.linalg.norm(pts[lo:lo + chunk, None, :] - near, axis=2)
+        dd[np.linalg.norm(near - foot[lo:lo + chunk, None, :], axis=2) <= 1e3 * tol] = np.inf
+        jj = np.argmin(dd, axis=1)
+        rows = np.arange(len(jj))
+        j2[lo:lo + chunk], t2[lo:lo + chunk] = jj, tt[rows, jj]
+        tied[lo:lo + chunk] = dd[rows, jj] <= depth[lo:lo + chunk] + tol
+    return j2, t2, tied
+
+
 def _width_across(space: ShellSpace, pts: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """The width (in x, s) of the elements at each point, measured along ``normal`` (unit, (n, 2)): the mesh's
     resolution across the rim, also on the long thin elements of a mesh graded in one direction. A point on a
@@ -426,6 +512,15 @@ def _points_at(line: np.ndarray, arc: np.ndarray) -> np.ndarray:
     """Points of a polyline at the given arc lengths."""
     cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
     return np.stack([np.interp(arc, cum, line[:, 0]), np.interp(arc, cum, line[:, 1])], axis=1)
+
+
+def _round(line: np.ndarray, shell) -> bool:
+    """Whether a polyline closes on itself, also across the seam φ = 0/360° of a full cylinder (a line round it)."""
+    if np.allclose(line[0], line[-1]):
+        return True
+    tol = 1e-9 * shell.radius
+    return bool(shell.full and abs(line[0, 0] - line[-1, 0]) <= tol
+                and abs(abs(line[0, 1] - line[-1, 1]) - 2.0 * np.pi * shell.radius) <= tol)
 
 
 def _vertex_normals(line: np.ndarray, closed: bool) -> np.ndarray:
@@ -450,6 +545,10 @@ def _enclosed_area(lines: list[np.ndarray]) -> float | None:
     return abs(total)
 
 
+def _perimeter(line: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
+
+
 def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep: list[np.ndarray],
                    delta: float) -> list[float]:
     """The length of each polyline's kept segments, where two stretches within ``delta`` of each other running
@@ -457,11 +556,14 @@ def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep
     the zone along a rim, which the offset puts onto one line (not a rim's two arms near a sharp end)."""
     from scipy.spatial import cKDTree
 
-    pts, ds, owner, direction, source, source_arc = [], [], [], [], [], []
+    pts, ds, owner, direction, source, source_arc, periods = [], [], [], [], [], [], []
     for i, (pl, ol, kept) in enumerate(zip(polylines, outlines, keep)):
         seg = np.diff(pl, axis=0)
         lengths = np.linalg.norm(seg, axis=1)
         o_len = np.linalg.norm(np.diff(ol, axis=0), axis=1)
+        # along the outline, a closing stretch (the shell's edge) parts two sides as much as the rest of it does
+        o_len = np.where(kept, o_len, o_len.sum() + 1.0)
+        periods.append(float(o_len.sum()) if np.allclose(ol[0], ol[-1]) else np.inf)
         o_start = np.concatenate([[0.0], np.cumsum(o_len)[:-1]])
         for k in np.flatnonzero(kept & (lengths > 0)):
             n = max(1, math.ceil(lengths[k] / (0.5 * delta)))
@@ -478,13 +580,15 @@ def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep
     P, dl, who, d = np.vstack(pts), np.concatenate(ds), np.concatenate(owner), np.vstack(direction)
     src, arc = np.vstack(source), np.concatenate(source_arc)
     pairs = cKDTree(P).query_pairs(delta, output_type="ndarray")
-    duplicate = np.zeros(len(P), bool)
+    paired = np.zeros(len(P), bool)
     if len(pairs):
         p, q = pairs[:, 0], pairs[:, 1]
         apart = np.linalg.norm(src[p] - src[q], axis=1)
         # the two sides of a sliver: close across, far along the outline (not a local fold of the offset line)
-        sides = (apart <= 2 * delta) & ((who[p] != who[q]) | (np.abs(arc[p] - arc[q]) > 2 * apart + delta))
+        along = np.abs(arc[p] - arc[q])
+        along = np.minimum(along, np.asarray(periods)[who[p]] - along)  # round a closed outline, from anywhere
+        sides = (apart <= 2 * delta) & ((who[p] != who[q]) | (along > 2 * apart + delta))
         opposite = (np.einsum("nk,nk->n", d[p], d[q]) < -0.5) & sides
-        duplicate[np.maximum(p, q)[opposite]] = True
-    np.add.at(out, who[~duplicate], dl[~duplicate])
+        paired[np.maximum(p, q)[opposite]] = True
+    np.add.at(out, who[~paired], dl[~paired])
     return [float(v) for v in out]

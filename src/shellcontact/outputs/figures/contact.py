@@ -90,18 +90,25 @@ def _rim_headline(result, rim: dict | None) -> str:
 
 
 def _draw_line_force(ax, fig, result, rim: dict | None, lines: list[np.ndarray]) -> bool:
-    """The rim's polylines coloured by the line force (N/m) of the nearest sample, with its own colour bar."""
+    """The rim's polylines coloured by the line force (N/m) of the nearest of their own samples (polyline i is
+    ``per_line`` i), with its own colour bar."""
     if not rim or not rim.get("samples") or not lines:
         return False
     a = result.solution.shell.radius
-    sx = np.array([s["x"] for s in rim["samples"]])
-    ss = np.radians([s["phi"] for s in rim["samples"]]) * a
-    q = np.array([s["line_force"] for s in rim["samples"]])
+    samples = rim["samples"]
+    owner = np.array([s.get("line", -1) for s in samples])
     segments, values = [], []
-    for ln in lines:
+    for i, ln in enumerate(lines):
+        own = [s for s, k in zip(samples, owner) if k == i] or samples  # the line's own samples (polyline i)
+        sx = np.array([s["x"] for s in own])
+        ss = np.radians([s["phi"] for s in own]) * a
+        q = np.array([s["line_force"] for s in own])
         pts = np.stack([ln[:, 0], np.degrees(ln[:, 1] / a)], axis=1)
         mid = 0.5 * (ln[1:] + ln[:-1])
-        nearest = np.argmin((mid[:, 0, None] - sx[None]) ** 2 + (mid[:, 1, None] - ss[None]) ** 2, axis=1)
+        ds = np.abs(mid[:, 1, None] - ss[None])
+        if result.solution.shell.full:  # samples' φ lie in [0, 360°): the short way round the seam
+            ds = np.minimum(ds, 2.0 * math.pi * a - ds)
+        nearest = np.argmin((mid[:, 0, None] - sx[None]) ** 2 + ds ** 2, axis=1)
         segments += [pts[i:i + 2] for i in range(len(pts) - 1)]
         values += list(q[nearest])
     lc = LineCollection(segments, cmap="viridis", linewidths=3.5)
@@ -214,6 +221,31 @@ def _broken(c: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.insert(c.astype(float), k, np.nan), np.insert(p.astype(float), k, np.nan)
 
 
+def rim_line_profiles(rim: dict, radius: float, period: float | None) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per boundary line of a punch's rim (the samples' ``line``): the arc length along it from its first
+    sample and the line force there, closed back to the first sample where the line closes (``per_line``
+    ``closed``, also round a full cylinder across its seam: ``period`` = 2π a)."""
+    per_line = rim.get("per_line") or []
+    groups: dict[int, list[dict]] = {}
+    for q in rim["samples"]:
+        groups.setdefault(int(q.get("line", 0)), []).append(q)
+    out = []
+    for i, samples in sorted(groups.items()):
+        pts = np.array([[q["x"], radius * math.radians(q["phi"])] for q in samples])
+        step = np.diff(pts, axis=0)
+        closed = i < len(per_line) and per_line[i].get("closed") and len(samples) > 2
+        if closed:
+            step = np.vstack([step, pts[:1] - pts[-1:]])
+        if period:  # a step across the seam is the short way round
+            step[:, 1] = (step[:, 1] + 0.5 * period) % period - 0.5 * period
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(step, axis=1))])
+        q = np.array([s["line_force"] for s in samples])
+        if not closed and i < len(per_line) and per_line[i].get("kind") == "line":  # bin centres on the line
+            arc = arc + 0.5 * max(per_line[i]["length"] - arc[-1], 0.0)
+        out.append((arc, np.append(q, q[0]) if closed else q))
+    return out
+
+
 def plot_pressure_profiles(
     result, path: str | Path | None = None, x: float | None = None, phi: float | None = None
 ) -> Figure | None:
@@ -231,15 +263,15 @@ def plot_pressure_profiles(
     if rims:
         ax = fig.add_subplot(1, n, 1)
         a = result.solution.shell.radius
+        period = 2.0 * math.pi * a if result.solution.shell.full else None
         for k, rim in rims:
-            pts = np.array([[s["x"], a * math.radians(s["phi"])] for s in rim["samples"]])
-            arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-            q = np.array([s["line_force"] for s in rim["samples"]])
-            if rim.get("kind") != "line" and rim.get("lines") == 1 and len(q) > 2:  # round to the first sample
-                arc, q = np.append(arc, arc[-1] + np.linalg.norm(pts[0] - pts[-1])), np.append(q, q[0])
-            line = ax.plot(arc, q, "-", label=f"punch {k}: {_rim_headline(result, rim)}")[0]
-            ax.axhline(rim["mean_line_force"], color=line.get_color(), ls="--", lw=0.8)
-        ax.set_xlabel(f"along the rim or line{_unit(result, 'length')}")
+            colour = None
+            for arc, q in rim_line_profiles(rim, a, period):
+                line = ax.plot(arc, q, "-" if len(q) > 1 else "o", color=colour,  # one sample: a line load's mean
+                               label=None if colour else f"punch {k}: {_rim_headline(result, rim)}")[0]
+                colour = line.get_color()
+            ax.axhline(rim["mean_line_force"], color=colour, ls="--", lw=0.8)
+        ax.set_xlabel(f"along each rim or line{_unit(result, 'length')}")
         ax.set_ylabel(f"line force{_unit(result, 'force/length')}")
         ax.set_ylim(0.0, 1.15 * max(max(s["line_force"] for s in r["samples"]) for _, r in rims))
         ax.set_title("line force along the rim or line (dashed: its mean)", fontsize=10)
