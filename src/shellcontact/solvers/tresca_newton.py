@@ -1,0 +1,189 @@
+"""Tresca friction by the exact primal method: a primal–dual active set / semismooth Newton on the normal
+open/closed and the tangential stick/slip sets together (Hüeber, Stadler & Wohlmuth, SIAM J. Sci. Comput.
+30 (2008) 572–596, their Tresca algorithm, in the multipliers; MODEL.md §11, docs/theory.md §9a).
+
+The law, written as equations with c_n, c_t > 0 (``solvers.tresca`` for C, c, g; gap = B U + G, σ = C U − c):
+
+    Λ_i = max(0, Λ_i − c_n gap_i)                      (normal: Λ ≥ 0, gap ≥ 0, Λ gap = 0)
+    max(g_j, |z_j|) T_j = g_j z_j,  z_j = T_j − c_t,j σ_j   (tangential: T_j = P_{|·| ≤ g_j}(z_j))
+
+Each iteration takes the sets from the current iterate — closed 𝒜 = {Λ_i − c_n gap_i > 0}, stick
+𝒮 = {|z_j| < g_j}, slip ℒ = the other pairs with g_j > 0 — and solves the Newton system in y = (Λ, T):
+Λ_i = 0 off 𝒜, gap_i = 0 on 𝒜, σ_j = 0 on 𝒮, and on ℒ the linearised slip law
+[T̃ nᵀ + (|z| − g) I] T_j − c_t [T̃ nᵀ − g I] σ_j = (the same at the iterate) − F_j, n = z/|z|,
+T̃ = g T/max(g, |T|) (HSW's damping of T in the derivative, which keeps the matrix regular away from the
+solution). With U = A⁻¹(F + BᵀΛ + CᵀT), gap and σ are affine in y through Ŝ = B̂A⁻¹B̂ᵀ, so the system is
+dense of order |𝒜| + 2·#{g_j > 0}: its normal block comes from ``schur.Workspace`` (columns of S only for
+rows that were ever closed, cached), the pair columns A⁻¹C_jᵀ from blocked solves with the same
+factorisation, kept in ``cache`` between calls (Coulomb's fixed point changes only g). The iterate's gaps and
+slips come from one solve for U per iteration, so open rows cost nothing.
+
+Stops when the sets repeat and the equations' residual (NCP functions scaled by the largest force and the
+bound) is ≤ tol. Where the sets cycle or the iterations run out (the HSW iteration has no global
+convergence proof), it hands over to the dual (``solve_tresca_dual``, MPGP, which converges from any start)
+warm-started from its iterate; ``info["fallback"]`` says so.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg as la
+import scipy.sparse as sp
+
+from ..linalg import Factorization
+from .qp import ContactQP, ContactSolution, check_arguments
+from .schur import Workspace
+from .tresca import _check, _pair_rows, _solves, friction_residuals, solve_tresca_dual
+
+#: iterations without a new smallest residual after which the dual takes over (the sets wander: 50 iterations
+#: without converging on the 8 × 8 panel at 1e8 Pa)
+PATIENCE = 8
+#: where the sets repeat but the residual no longer falls (its round-off), the residual accepted, relative to tol
+_FLOOR = 1e3
+
+
+def _pair_solves(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, ws: Workspace, cache: dict) -> np.ndarray:
+    """A⁻¹C_jᵀ for the pairs ``pairs`` (n × 2·len(pairs)), solved once per pair and kept in ``cache["X"]``."""
+    X: dict = cache.setdefault("X", {})
+    new = np.array([j for j in pairs if j not in X], dtype=int)
+    if new.size:
+        Xn = _solves(C[_pair_rows(new)], ws.fact)
+        for i, j in enumerate(new):
+            X[j] = Xn[:, 2 * i:2 * i + 2]
+    return np.hstack([X[j] for j in pairs]) if len(pairs) else np.zeros((qp.n, 0))
+
+
+def _tangential_ncp(T: np.ndarray, sig: np.ndarray, g: np.ndarray, ct: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """z = T − c_t σ and the residual T − P_g(z) of the pairs (p, 2)."""
+    z = T - ct[:, None] * sig
+    r = np.linalg.norm(z, axis=1)
+    proj = z * (g / np.maximum(r, g))[:, None]
+    return z, T - proj
+
+
+def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, tol: float = 1e-10,
+                        max_iterations: int = 50, factorization: Factorization | None = None,
+                        initial: np.ndarray | None = None, cache: dict | None = None) -> ContactSolution:
+    """Tresca friction by semismooth Newton on the open/closed and stick/slip sets (module docstring).
+    Arguments as ``solve_tresca_dual``: ``initial`` a start y = (Λ, T) (m + 2m), ``cache`` a dict kept between
+    calls on the same QP, C and c. Pairs with g_j = 0 have T_j = 0 and leave the system."""
+    check_arguments(tol, max_iterations)
+    C, c, g = _check(qp, C, c, g)
+    t0 = time.perf_counter()
+    cache = {} if cache is None else cache
+    if "ws" not in cache:
+        cache["ws"] = Workspace(qp, factorization)
+    ws: Workspace = cache["ws"]
+    t1 = time.perf_counter()
+    m = qp.m
+    pairs = np.flatnonzero(g > 0)
+    prow = _pair_rows(pairs)
+    gp = g[pairs]
+    Xp = _pair_solves(qp, C, pairs, ws, cache)
+    SPP = C[prow] @ Xp
+    SPP = 0.5 * (SPP + SPP.T)
+    ct = 2.0 / np.maximum(np.einsum("jj->j", SPP).reshape(-1, 2).sum(axis=1), 1e-300)  # 1 / the pair's flexibility
+    t2 = time.perf_counter()
+
+    Lam = np.zeros(m) if initial is None else np.maximum(np.asarray(initial[:m], float), 0.0)
+    T = np.zeros(2 * m) if initial is None else np.asarray(initial[m:], float).copy()
+    T.reshape(-1, 2)[g <= 0] = 0.0
+    history: list = []
+    seen: set = set()
+    last = None
+    best, since_best = np.inf, 0
+    fallback = None
+    it = 0
+    for it in range(1, max_iterations + 1):
+        U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
+        gap, sig = qp.gap(U), (C @ U - c).reshape(-1, 2)[pairs]
+        Tp = T.reshape(-1, 2)[pairs]
+        lam_scale = max(float(Lam.max(initial=0.0)), float(gp.max(initial=0.0)), 1e-300)
+        cn = lam_scale / ws.length_scale(gap)
+        closed = Lam - cn * gap > 0
+        z, rt = _tangential_ncp(Tp, sig, gp, ct)
+        rn = Lam - np.maximum(0.0, Lam - cn * gap)
+        resid = max(float(np.abs(rn).max(initial=0.0)), float(np.abs(rt).max(initial=0.0))) / lam_scale
+        slip = np.linalg.norm(z, axis=1) >= gp
+        key = (closed.tobytes(), slip.tobytes())
+        history.append({"iteration": it, "closed": int(closed.sum()), "stick": int((~slip).sum()),
+                        "slip": int(slip.sum()), "residual": resid})
+        if resid <= tol:
+            break
+        if key == last:  # the sets held: Newton on the slip directions, quadratic until round-off
+            if history[-2]["residual"] <= resid:
+                fallback = None if resid <= _FLOOR * tol else "stalled"
+                break
+        elif key in seen:  # a cycle of sets
+            fallback = "cycle"
+            break
+        seen.add(key)
+        last = key
+        best = min(best, resid)
+        if resid <= best:
+            since_best = 0
+        elif (since_best := since_best + 1) >= PATIENCE:
+            fallback = "stalled"
+            break
+        A = np.flatnonzero(closed)
+        BA = qp.B[A]
+        SAA = ws.block(A)
+        SAP = BA @ Xp
+        k, p2 = A.size, 2 * pairs.size
+        J = np.zeros((k + p2, k + p2))
+        rhs = np.zeros(k + p2)
+        J[:k, :k], J[:k, k:] = SAA, SAP
+        # the affine offsets of gap_A and σ_P in (Λ_A, T_P) from the TRUE gaps and slips of the iterate (not from
+        # c0 + Ŝy: the columns of Ŝ carry round-off, and the true residual makes each step a refinement too)
+        gap0 = gap[A] - ws.Sx(Lam)[A] - SAP @ Tp.ravel()
+        sig0 = sig.ravel() - Xp.T @ (qp.B.T @ Lam) - SPP @ Tp.ravel()
+        rhs[:k] = -gap0
+        J[k:, :k], J[k:, k:] = SAP.T, SPP  # σ_P = σ0 + S_PA Λ_A + S_PP T_P: stick rows as they are
+        rhs[k:] = -sig0
+        for j in np.flatnonzero(slip):  # slip rows: the linearised slip law
+            r = slice(k + 2 * j, k + 2 * j + 2)
+            nz = np.linalg.norm(z[j])
+            n = z[j] / nz
+            Tt = gp[j] * Tp[j] / max(gp[j], float(np.linalg.norm(Tp[j])))
+            M = np.outer(Tt, n) + (nz - gp[j]) * np.eye(2)
+            N = ct[j] * (np.outer(Tt, n) - gp[j] * np.eye(2))
+            Fj = nz * Tp[j] - gp[j] * z[j]
+            rows = -N @ J[r]  # −c_t N (S_jA Λ_A + S_jP T_P)
+            rows[:, k + 2 * j:k + 2 * j + 2] += M
+            J[r] = rows
+            rhs[r] = M @ Tp[j] - N @ sig[j] - Fj + N @ sig0[2 * j:2 * j + 2]
+        try:
+            # equilibrated: the gap rows (m/N) and the slip rows (N) differ by ~1e12, which LU's pivoting mixes
+            rs = 1.0 / np.maximum(np.abs(J).max(axis=1), 1e-300)
+            cs = 1.0 / np.maximum(np.abs(J * rs[:, None]).max(axis=0), 1e-300)
+            y = cs * la.lu_solve(la.lu_factor(J * rs[:, None] * cs), rhs * rs)
+        except (la.LinAlgError, ValueError):
+            fallback = "singular"
+            break
+        Lam = np.zeros(m)
+        Lam[A] = y[:k]
+        T = np.zeros(2 * m)
+        T.reshape(-1, 2)[pairs] = y[k:].reshape(-1, 2)
+    else:
+        fallback = "iterations"
+    t3 = time.perf_counter()
+    if fallback is not None:  # the dual from this iterate (module docstring)
+        sol = solve_tresca_dual(qp, C, c, g, tol=tol, factorization=ws.fact,
+                                initial=np.concatenate([np.maximum(Lam, 0.0), T]))
+        sol.method = "tresca-active-set"
+        sol.iterations += it
+        sol.history = history + sol.history
+        sol.info["fallback"] = fallback
+        sol.timings = {"factorization": t1 - t0, "pairs": t2 - t1, "newton": t3 - t2,
+                       "dual": sol.timings["total"], "total": time.perf_counter() - t0}
+        return sol
+    U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
+    res = friction_residuals(qp, C, c, g, U, Lam, T)
+    return ContactSolution(
+        U=U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=None, iterations=it, residuals=res,
+        method="tresca-active-set", history=history, energy=qp.energy(U),
+        timings={"factorization": t1 - t0, "pairs": t2 - t1, "newton": time.perf_counter() - t2,
+                 "total": time.perf_counter() - t0},
+        info={"T": T, "slip": C @ U - c, "bounds": g, "gap": qp.gap(U), "fallback": None})
