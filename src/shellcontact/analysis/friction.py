@@ -2,9 +2,11 @@
 
 ``has_friction(case)`` says whether any punch has friction or a slide; then ``solve_friction`` replaces the
 frictionless contact solve: Tresca (a bound g in Pa, acting on the rows in contact: the bound of row i is
-ω_i g where Λ_i > 0, by the fixed point on the contact set) or Coulomb (μ, the fixed point g = μ|∇Z|Λ), each
-by the dual with disc constraints (methods "dual" and "active-set") or by the penalty (method "penalty",
-its ε). ``attach_friction`` adds the friction force to the shell's balance and the per-punch ``friction`` entry of
+ω_i g where Λ_i > 0) or Coulomb (μ, the fixed point g = μ|∇Z|Λ), each by the semismooth Newton of
+``solvers.tresca_newton`` (method "active-set": it finds the contact set and the Tresca bounds on it together),
+the dual with disc constraints (method "dual") or the penalty (method "penalty", its ε); the last two take the
+Tresca bounds on the contact set by the fixed point too.
+``attach_friction`` adds the friction force to the shell's balance and the per-punch ``friction`` entry of
 summary.json. Frictionless cases never come here: their results are today's, bit for bit.
 """
 
@@ -20,6 +22,7 @@ from ..linalg import factorize
 from ..problem.case import Case
 from ..solvers.qp import ContactSolution
 from ..solvers.tresca import solve_tresca_dual, solve_tresca_penalty
+from ..solvers.tresca_newton import solve_tresca_newton
 from .validity import ResultWarning
 
 #: the penalty's normal forces carry Newton's round-off (changes of ~3e-9 of the largest bound between
@@ -45,10 +48,21 @@ def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float
     tresca_g = top.tresca_bounds(op.weights, np.array([s.bound if s.model == "tresca" else 0.0 for s in specs]))
     scale = np.linalg.norm(op.grad, axis=0)
 
-    def bounds(Lam: np.ndarray) -> np.ndarray:
-        return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
+    # the active set's Newton gates the Tresca bounds by its own closed set (``on_contact``): the normal and
+    # tangential sets are found together, and the fixed point runs only for Coulomb
+    gated = method != "active-set"
 
-    if method == "penalty":
+    def bounds(Lam: np.ndarray) -> np.ndarray:
+        return mu * scale * np.maximum(Lam, 0.0) + (np.where(Lam > 0, tresca_g, 0.0) if gated else tresca_g)
+
+    if method == "active-set":
+        options = {"factorization": setup.factorization if setup.screen is None else None, "tol": tolerance,
+                   "cache": {}, "on_contact": True}
+        tresca, fixed_tol = solve_tresca_newton, COULOMB_TOL
+
+        def warm(sol: ContactSolution) -> dict:
+            return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
+    elif method == "penalty":
         options: dict[str, Any] = {"epsilon": setup.eps, "tol": tolerance}
         tresca, fixed_tol = solve_tresca_penalty, PENALTY_FIXED_POINT_TOL
 
@@ -62,7 +76,9 @@ def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float
         def warm(sol: ContactSolution) -> dict:
             return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, **options)
-    return sol, {"operator": top, "record": record, "method": sol.method}
+    if not sol.info.get("law", True):  # the Newton's contact sets cycled (solvers.tresca_newton)
+        record.converged, record.cycle = False, True
+    return sol, {"operator": top, "record": record, "method": sol.method, "fallback": sol.info.get("fallback")}
 
 
 def attach_friction(result: Any, friction: dict) -> None:
@@ -79,7 +95,14 @@ def attach_friction(result: Any, friction: dict) -> None:
         entry["fixed_point"] = record.summary()
         entry["method"] = friction["method"]
     result.contact.friction = entries
-    if not record.converged or record.contraction > COULOMB_CONTRACTION:
+    if record.cycle:
+        text = ("friction: the contact set alternates between sets that each, with the Tresca bound on its rows, "
+                "close different rows: the Tresca law on the contact set has no solution among them (the bound "
+                "exceeds what the contact pressure can hold without lifting the shell; docs/theory.md §9a) and "
+                "this result is not one; lower the Tresca bound or the slide, or use Coulomb friction")
+        result.info.setdefault("warnings", []).append(ResultWarning("friction_no_solution", text))
+        print(f"warning: {text}", file=sys.stderr)
+    elif not record.converged or record.contraction > COULOMB_CONTRACTION:
         state = (f"did not converge in {record.iterations} iterations" if not record.converged
                  else f"contracts only by {record.contraction:.3g} per iteration (> {COULOMB_CONTRACTION})")
         text = (f"friction: the fixed point of the friction bounds on the normal forces {state}: the static friction "

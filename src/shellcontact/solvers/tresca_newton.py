@@ -59,16 +59,21 @@ def _tangential_ncp(T: np.ndarray, sig: np.ndarray, g: np.ndarray, ct: np.ndarra
     """z = T − c_t σ and the residual T − P_g(z) of the pairs (p, 2)."""
     z = T - ct[:, None] * sig
     r = np.linalg.norm(z, axis=1)
-    proj = z * (g / np.maximum(r, g))[:, None]
+    proj = z * np.divide(g, np.maximum(r, g), out=np.zeros_like(g), where=g > 0)[:, None]
     return z, T - proj
 
 
 def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, tol: float = 1e-10,
                         max_iterations: int = 50, factorization: Factorization | None = None,
-                        initial: np.ndarray | None = None, cache: dict | None = None) -> ContactSolution:
+                        initial: np.ndarray | None = None, cache: dict | None = None,
+                        on_contact: bool = False) -> ContactSolution:
     """Tresca friction by semismooth Newton on the open/closed and stick/slip sets (module docstring).
     Arguments as ``solve_tresca_dual``: ``initial`` a start y = (Λ, T) (m + 2m), ``cache`` a dict kept between
-    calls on the same QP, C and c. Pairs with g_j = 0 have T_j = 0 and leave the system."""
+    calls on the same QP, C and c. Pairs with g_j = 0 have T_j = 0 and leave the system. ``on_contact``: the
+    bound g_j holds only where row j is closed (T_j = 0 on open rows: the case's Tresca, docs/theory.md §9a),
+    with the closed set of each iterate; the law is then not a convex QP and may have no solution — where
+    the sets cycle, the result is the dual's on the bounds of the last closed set, ``info["fallback"]``
+    "cycle", and ``info["law"]`` False."""
     check_arguments(tol, max_iterations)
     C, c, g = _check(qp, C, c, g)
     t0 = time.perf_counter()
@@ -103,12 +108,14 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
         lam_scale = max(float(Lam.max(initial=0.0)), float(gp.max(initial=0.0)), 1e-300)
         cn = lam_scale / ws.length_scale(gap)
         closed = Lam - cn * gap > 0
-        z, rt = _tangential_ncp(Tp, sig, gp, ct)
+        ge = np.where(closed[pairs], gp, 0.0) if on_contact else gp  # the bounds in force
+        z, rt = _tangential_ncp(Tp, sig, ge, ct)
         rn = Lam - np.maximum(0.0, Lam - cn * gap)
         resid = max(float(np.abs(rn).max(initial=0.0)), float(np.abs(rt).max(initial=0.0))) / lam_scale
-        slip = np.linalg.norm(z, axis=1) >= gp
+        held = ge > 0  # the other pairs (open rows under ``on_contact``): T_j = 0
+        slip = held & (np.linalg.norm(z, axis=1) >= ge)
         key = (closed.tobytes(), slip.tobytes())
-        history.append({"iteration": it, "closed": int(closed.sum()), "stick": int((~slip).sum()),
+        history.append({"iteration": it, "closed": int(closed.sum()), "stick": int((held & ~slip).sum()),
                         "slip": int(slip.sum()), "residual": resid})
         if resid <= tol:
             break
@@ -121,9 +128,8 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
             break
         seen.add(key)
         last = key
-        best = min(best, resid)
-        if resid <= best:
-            since_best = 0
+        if resid < best:
+            best, since_best = resid, 0
         elif (since_best := since_best + 1) >= PATIENCE:
             fallback = "stalled"
             break
@@ -142,14 +148,18 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
         rhs[:k] = -gap0
         J[k:, :k], J[k:, k:] = SAP.T, SPP  # σ_P = σ0 + S_PA Λ_A + S_PP T_P: stick rows as they are
         rhs[k:] = -sig0
+        for j in np.flatnonzero(~held):
+            J[k + 2 * j:k + 2 * j + 2] = 0.0
+            J[k + 2 * j, k + 2 * j] = J[k + 2 * j + 1, k + 2 * j + 1] = 1.0
+            rhs[k + 2 * j:k + 2 * j + 2] = 0.0
         for j in np.flatnonzero(slip):  # slip rows: the linearised slip law
             r = slice(k + 2 * j, k + 2 * j + 2)
             nz = np.linalg.norm(z[j])
             n = z[j] / nz
-            Tt = gp[j] * Tp[j] / max(gp[j], float(np.linalg.norm(Tp[j])))
-            M = np.outer(Tt, n) + (nz - gp[j]) * np.eye(2)
-            N = ct[j] * (np.outer(Tt, n) - gp[j] * np.eye(2))
-            Fj = nz * Tp[j] - gp[j] * z[j]
+            Tt = ge[j] * Tp[j] / max(ge[j], float(np.linalg.norm(Tp[j])))
+            M = np.outer(Tt, n) + (nz - ge[j]) * np.eye(2)
+            N = ct[j] * (np.outer(Tt, n) - ge[j] * np.eye(2))
+            Fj = nz * Tp[j] - ge[j] * z[j]
             rows = -N @ J[r]  # −c_t N (S_jA Λ_A + S_jP T_P)
             rows[:, k + 2 * j:k + 2 * j + 2] += M
             J[r] = rows
@@ -169,21 +179,25 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     else:
         fallback = "iterations"
     t3 = time.perf_counter()
-    if fallback is not None:  # the dual from this iterate (module docstring)
-        sol = solve_tresca_dual(qp, C, c, g, tol=tol, factorization=ws.fact,
+    if fallback is not None:  # the dual from this iterate (module docstring), on the last closed set's bounds
+        g_used = np.where(closed, g, 0.0) if on_contact else g
+        sol = solve_tresca_dual(qp, C, c, g_used, tol=tol, factorization=ws.fact,
                                 initial=np.concatenate([np.maximum(Lam, 0.0), T]))
         sol.method = "tresca-active-set"
         sol.iterations += it
         sol.history = history + sol.history
-        sol.info["fallback"] = fallback
+        # the law on the contact set holds if the dual's contact set is the one whose bounds it used
+        law = not on_contact or bool(np.array_equal((sol.Lambda > 0) & (g > 0), (g_used > 0)))
+        sol.info.update(fallback=fallback, law=law)
         sol.timings = {"factorization": t1 - t0, "pairs": t2 - t1, "newton": t3 - t2,
                        "dual": sol.timings["total"], "total": time.perf_counter() - t0}
         return sol
     U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
-    res = friction_residuals(qp, C, c, g, U, Lam, T)
+    g_used = np.where(Lam > 0, g, 0.0) if on_contact else g
+    res = friction_residuals(qp, C, c, g_used, U, Lam, T)
     return ContactSolution(
         U=U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=None, iterations=it, residuals=res,
         method="tresca-active-set", history=history, energy=qp.energy(U),
         timings={"factorization": t1 - t0, "pairs": t2 - t1, "newton": time.perf_counter() - t2,
                  "total": time.perf_counter() - t0},
-        info={"T": T, "slip": C @ U - c, "bounds": g, "gap": qp.gap(U), "fallback": None})
+        info={"T": T, "slip": C @ U - c, "bounds": g_used, "gap": qp.gap(U), "fallback": None, "law": True})
