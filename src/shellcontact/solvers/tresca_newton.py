@@ -15,8 +15,9 @@ T̃ = g T/max(g, |T|) (HSW's damping of T in the derivative, which keeps the mat
 solution). With U = A⁻¹(F + BᵀΛ + CᵀT), gap and σ are affine in y through Ŝ = B̂A⁻¹B̂ᵀ, so the system is
 dense of order |𝒜| + 2·#{g_j > 0}: its normal block comes from ``schur.Workspace`` (columns of S only for
 rows that were ever closed, cached), the pair columns A⁻¹C_jᵀ from blocked solves with the same
-factorisation, kept in ``cache`` between calls (Coulomb's fixed point changes only g). The iterate's gaps and
-slips come from one solve for U per iteration, so open rows cost nothing.
+factorisation, kept in ``cache`` between calls (Coulomb's fixed point changes only g); with the bounds on the
+contact set only (``on_contact``) only the closed rows' pairs enter. The iterate's gaps and slips come from
+one solve for U per iteration, so open rows cost nothing.
 
 Stops when the sets repeat and the equations' residual (NCP functions scaled by the largest force and the
 bound) is ≤ tol. Where the sets cycle or the iterations run out (the HSW iteration has no global
@@ -63,6 +64,32 @@ def _tangential_ncp(T: np.ndarray, sig: np.ndarray, g: np.ndarray, ct: np.ndarra
     return z, T - proj
 
 
+def _system(ws: Workspace, qp: ContactQP, C: sp.csr_matrix, A: np.ndarray, pairs: np.ndarray, Xp: np.ndarray,
+            Lam: np.ndarray, Tp: np.ndarray, gap: np.ndarray, sig: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The Newton matrix with gap rows on 𝒜 and σ rows on the pairs (stick as they are; the caller rewrites the
+    slip rows), and its right-hand side: the affine offsets of gap_𝒜 and σ_P in (Λ_𝒜, T_P) from the TRUE gaps
+    and slips of the iterate (not from c0 + Ŝy: the columns of Ŝ carry round-off, and the true residual makes
+    each step a refinement too)."""
+    SAP = qp.B[A] @ Xp
+    SPP = C[_pair_rows(pairs)] @ Xp
+    k, p2 = A.size, 2 * pairs.size
+    J = np.zeros((k + p2, k + p2))
+    J[:k, :k], J[:k, k:] = ws.block(A), SAP
+    J[k:, :k], J[k:, k:] = SAP.T, 0.5 * (SPP + SPP.T)
+    rhs = np.empty(k + p2)
+    rhs[:k] = -(gap[A] - ws.Sx(Lam)[A] - SAP @ Tp.ravel())
+    rhs[k:] = -(sig.ravel() - Xp.T @ (qp.B.T @ Lam) - SPP @ Tp.ravel())
+    return J, rhs
+
+
+def _solve_equilibrated(J: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """J y = rhs, equilibrated: the gap rows (m/N) and the slip rows (N) differ by ~1e12, which LU's pivoting
+    mixes (unequilibrated, the steps stalled at 3e-5 relative on the 8 × 8 panel)."""
+    rs = 1.0 / np.maximum(np.abs(J).max(axis=1, initial=0.0), 1e-300)
+    cs = 1.0 / np.maximum(np.abs(J * rs[:, None]).max(axis=0, initial=0.0), 1e-300)
+    return cs * la.lu_solve(la.lu_factor(J * rs[:, None] * cs), rhs * rs)
+
+
 def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, tol: float = 1e-10,
                         max_iterations: int = 50, factorization: Factorization | None = None,
                         initial: np.ndarray | None = None, cache: dict | None = None,
@@ -81,41 +108,43 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     if "ws" not in cache:
         cache["ws"] = Workspace(qp, factorization)
     ws: Workspace = cache["ws"]
-    t1 = time.perf_counter()
     m = qp.m
-    pairs = np.flatnonzero(g > 0)
-    prow = _pair_rows(pairs)
-    gp = g[pairs]
-    Xp = _pair_solves(qp, C, pairs, ws, cache)
-    SPP = C[prow] @ Xp
-    SPP = 0.5 * (SPP + SPP.T)
-    ct = 2.0 / np.maximum(np.einsum("jj->j", SPP).reshape(-1, 2).sum(axis=1), 1e-300)  # 1 / the pair's flexibility
-    t2 = time.perf_counter()
+    candidates = g > 0
+    t1 = time.perf_counter()
 
     Lam = np.zeros(m) if initial is None else np.maximum(np.asarray(initial[:m], float), 0.0)
     T = np.zeros(2 * m) if initial is None else np.asarray(initial[m:], float).copy()
-    T.reshape(-1, 2)[g <= 0] = 0.0
+    T.reshape(-1, 2)[~candidates] = 0.0
     history: list = []
     seen: set = set()
     last = None
     best, since_best = np.inf, 0
     fallback = None
     it = 0
+    closed = Lam > 0
     for it in range(1, max_iterations + 1):
         U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
-        gap, sig = qp.gap(U), (C @ U - c).reshape(-1, 2)[pairs]
-        Tp = T.reshape(-1, 2)[pairs]
-        lam_scale = max(float(Lam.max(initial=0.0)), float(gp.max(initial=0.0)), 1e-300)
+        gap, sigma = qp.gap(U), (C @ U - c).reshape(-1, 2)
+        lam_scale = max(float(Lam.max(initial=0.0)), float(g.max(initial=0.0)), 1e-300)
         cn = lam_scale / ws.length_scale(gap)
         closed = Lam - cn * gap > 0
-        ge = np.where(closed[pairs], gp, 0.0) if on_contact else gp  # the bounds in force
-        z, rt = _tangential_ncp(Tp, sig, ge, ct)
+        # the pairs in the system (the rest have T_j = 0): every candidate, or (on_contact) the closed ones
+        pairs = np.flatnonzero(candidates & closed) if on_contact else np.flatnonzero(candidates)
+        Xp = _pair_solves(qp, C, pairs, ws, cache)
+        ct = cache.setdefault("ct", {})
+        for j in pairs:
+            if j not in ct:  # c_t: 1 / the pair's flexibility
+                ct[j] = 2.0 / max(float(np.trace(C[_pair_rows(np.array([j]))] @ cache["X"][j])), 1e-300)
+        cp = np.array([ct[j] for j in pairs])
+        b = g[pairs]  # the bounds in force
+        Tp, sig = T.reshape(-1, 2)[pairs], sigma[pairs]
+        z, rt = _tangential_ncp(Tp, sig, b, cp)
         rn = Lam - np.maximum(0.0, Lam - cn * gap)
-        resid = max(float(np.abs(rn).max(initial=0.0)), float(np.abs(rt).max(initial=0.0))) / lam_scale
-        held = ge > 0  # the other pairs (open rows under ``on_contact``): T_j = 0
-        slip = held & (np.linalg.norm(z, axis=1) >= ge)
-        key = (closed.tobytes(), slip.tobytes())
-        history.append({"iteration": it, "closed": int(closed.sum()), "stick": int((held & ~slip).sum()),
+        r_open = float(np.abs(T.reshape(-1, 2)[candidates & ~np.isin(np.arange(m), pairs)]).max(initial=0.0))
+        resid = max(float(np.abs(rn).max(initial=0.0)), float(np.abs(rt).max(initial=0.0)), r_open) / lam_scale
+        slip = np.linalg.norm(z, axis=1) >= b
+        key = (closed.tobytes(), pairs.tobytes(), slip.tobytes())
+        history.append({"iteration": it, "closed": int(closed.sum()), "stick": int((~slip).sum()),
                         "slip": int(slip.sum()), "residual": resid})
         if resid <= tol:
             break
@@ -134,41 +163,22 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
             fallback = "stalled"
             break
         A = np.flatnonzero(closed)
-        BA = qp.B[A]
-        SAA = ws.block(A)
-        SAP = BA @ Xp
-        k, p2 = A.size, 2 * pairs.size
-        J = np.zeros((k + p2, k + p2))
-        rhs = np.zeros(k + p2)
-        J[:k, :k], J[:k, k:] = SAA, SAP
-        # the affine offsets of gap_A and σ_P in (Λ_A, T_P) from the TRUE gaps and slips of the iterate (not from
-        # c0 + Ŝy: the columns of Ŝ carry round-off, and the true residual makes each step a refinement too)
-        gap0 = gap[A] - ws.Sx(Lam)[A] - SAP @ Tp.ravel()
-        sig0 = sig.ravel() - Xp.T @ (qp.B.T @ Lam) - SPP @ Tp.ravel()
-        rhs[:k] = -gap0
-        J[k:, :k], J[k:, k:] = SAP.T, SPP  # σ_P = σ0 + S_PA Λ_A + S_PP T_P: stick rows as they are
-        rhs[k:] = -sig0
-        for j in np.flatnonzero(~held):
-            J[k + 2 * j:k + 2 * j + 2] = 0.0
-            J[k + 2 * j, k + 2 * j] = J[k + 2 * j + 1, k + 2 * j + 1] = 1.0
-            rhs[k + 2 * j:k + 2 * j + 2] = 0.0
-        for j in np.flatnonzero(slip):  # slip rows: the linearised slip law
+        J, rhs = _system(ws, qp, C, A, pairs, Xp, Lam, Tp, gap, sig)
+        k = A.size
+        for j in np.flatnonzero(slip):  # slip rows: the linearised slip law (module docstring)
             r = slice(k + 2 * j, k + 2 * j + 2)
             nz = np.linalg.norm(z[j])
             n = z[j] / nz
-            Tt = ge[j] * Tp[j] / max(ge[j], float(np.linalg.norm(Tp[j])))
-            M = np.outer(Tt, n) + (nz - ge[j]) * np.eye(2)
-            N = ct[j] * (np.outer(Tt, n) - ge[j] * np.eye(2))
-            Fj = nz * Tp[j] - ge[j] * z[j]
+            Tt = b[j] * Tp[j] / max(b[j], float(np.linalg.norm(Tp[j])))
+            M = np.outer(Tt, n) + (nz - b[j]) * np.eye(2)
+            N = cp[j] * (np.outer(Tt, n) - b[j] * np.eye(2))
+            Fj = nz * Tp[j] - b[j] * z[j]
             rows = -N @ J[r]  # −c_t N (S_jA Λ_A + S_jP T_P)
             rows[:, k + 2 * j:k + 2 * j + 2] += M
+            rhs[r] = M @ Tp[j] - N @ sig[j] - Fj - N @ rhs[r]
             J[r] = rows
-            rhs[r] = M @ Tp[j] - N @ sig[j] - Fj + N @ sig0[2 * j:2 * j + 2]
         try:
-            # equilibrated: the gap rows (m/N) and the slip rows (N) differ by ~1e12, which LU's pivoting mixes
-            rs = 1.0 / np.maximum(np.abs(J).max(axis=1), 1e-300)
-            cs = 1.0 / np.maximum(np.abs(J * rs[:, None]).max(axis=0), 1e-300)
-            y = cs * la.lu_solve(la.lu_factor(J * rs[:, None] * cs), rhs * rs)
+            y = _solve_equilibrated(J, rhs)
         except (la.LinAlgError, ValueError):
             fallback = "singular"
             break
@@ -189,8 +199,8 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
         # the law on the contact set holds if the dual's contact set is the one whose bounds it used
         law = not on_contact or bool(np.array_equal((sol.Lambda > 0) & (g > 0), (g_used > 0)))
         sol.info.update(fallback=fallback, law=law)
-        sol.timings = {"factorization": t1 - t0, "pairs": t2 - t1, "newton": t3 - t2,
-                       "dual": sol.timings["total"], "total": time.perf_counter() - t0}
+        sol.timings = {"factorization": t1 - t0, "newton": t3 - t1, "dual": sol.timings["total"],
+                       "total": time.perf_counter() - t0}
         return sol
     U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
     g_used = np.where(Lam > 0, g, 0.0) if on_contact else g
@@ -198,6 +208,5 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     return ContactSolution(
         U=U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=None, iterations=it, residuals=res,
         method="tresca-active-set", history=history, energy=qp.energy(U),
-        timings={"factorization": t1 - t0, "pairs": t2 - t1, "newton": time.perf_counter() - t2,
-                 "total": time.perf_counter() - t0},
+        timings={"factorization": t1 - t0, "newton": time.perf_counter() - t1, "total": time.perf_counter() - t0},
         info={"T": T, "slip": C @ U - c, "bounds": g_used, "gap": qp.gap(U), "fallback": None, "law": True})
