@@ -1,8 +1,7 @@
 """Tresca friction by the exact primal method (``solvers.tresca_newton``, semismooth Newton on the open/closed
 and stick/slip sets) against the other two methods on the paper's panel: the dual (MPGP on the disc-constrained
 dual QP, another algorithm on another formulation) to round-off, and the penalty (regularised friction) to O(ε);
-the case's Tresca on the contact set, where it has a solution and where it has none; the friction keys of the
-schema."""
+the case's Tresca on the contact set where it has no solution; the friction keys of the schema."""
 
 from __future__ import annotations
 
@@ -61,27 +60,13 @@ def test_newton_and_penalty_agree_to_order_epsilon():
     assert errors[1] < 1e-3
 
 
-def test_on_contact_is_the_dual_on_its_contact_set():
-    """The case's Tresca (bound ω_i g only where the row is closed) at 1e7 Pa with a 0.1 mm slide: Newton's
-    solution is consistent — the dual with the bounds on Newton's closed rows closes the same rows and gives the
-    same solution."""
-    _, qp, op, top, C, c, fac = panel()
-    g = top.tresca_bounds(op.weights, 1e7)
-    n = solve_tresca_newton(qp, C, 0.1 * c, g, factorization=fac, on_contact=True)
-    assert n.info["law"] and n.info["fallback"] is None
-    closed = n.Lambda > 0
-    assert np.all(n.info["T"].reshape(-1, 2)[~closed] == 0.0)
-    d = solve_tresca_dual(qp, C, 0.1 * c, np.where(closed, g, 0.0), factorization=fac)
-    assert np.array_equal(d.Lambda > 0, closed)
-    assert rel(n.U, d.U) < 1e-9  # measured 7.9e-12
-
-
 def test_contact_set_tresca_without_solution():
     """1e8 Pa, 0.1 mm slide: the bounds on the frictionless contact set 𝒜 close the set ℬ, and the bounds on ℬ
     close 𝒜 again (checked by the dual, independently of Newton): the fixed point on the contact set alternates,
     and none of the 1024 sets between 𝒜 ∩ ℬ and 𝒜 ∪ ℬ is consistent (measured, 120 s: docs/theory.md §9a).
-    Newton (which finds the sets together) cycles too, says so, and the case warns with friction_no_solution
-    for every method, the fixed point stopping at the cycle (2 iterations, not 50)."""
+    The case warns with friction_no_solution for every method, the fixed point stopping at the cycle (2
+    iterations, not 50). (A Newton that gates the bounds by its own closed set cycles here too, and wandered
+    where this fixed point converges in 2 iterations: 32 × 32, 1e7 Pa, 1 mm slide.)"""
     _, qp, op, top, C, c, fac = panel()
     g = top.tresca_bounds(op.weights, 1e8)
     c = 0.1 * c
@@ -89,8 +74,6 @@ def test_contact_set_tresca_without_solution():
     for _ in range(3):
         closed.append(solve_tresca_dual(qp, C, c, np.where(closed[-1], g, 0.0), factorization=fac).Lambda > 0)
     assert not np.array_equal(closed[1], closed[2]) and np.array_equal(closed[1], closed[3])
-    n = solve_tresca_newton(qp, C, c, g, factorization=fac, on_contact=True)
-    assert not n.info["law"] and n.info["fallback"] in ("cycle", "stalled")
     for method in ("active-set", "dual"):
         s = solve(case_from_dict(panel_dict(friction={"model": "tresca", "bound": 1e8}, slide=(1e-4, 0.0, 0.0))),
                   method=method).summary()

@@ -2,10 +2,10 @@
 
 ``has_friction(case)`` says whether any punch has friction or a slide; then ``solve_friction`` replaces the
 frictionless contact solve: Tresca (a bound g in Pa, acting on the rows in contact: the bound of row i is
-ω_i g where Λ_i > 0) or Coulomb (μ, the fixed point g = μ|∇Z|Λ), each by the semismooth Newton of
-``solvers.tresca_newton`` (method "active-set": it finds the contact set and the Tresca bounds on it together),
-the dual with disc constraints (method "dual") or the penalty (method "penalty", its ε); the last two take the
-Tresca bounds on the contact set by the fixed point too.
+ω_i g where Λ_i > 0) or Coulomb (μ, the fixed point g = μ|∇Z|Λ), each Tresca problem of the fixed point
+solved by the semismooth Newton of ``solvers.tresca_newton`` (method "active-set"), the dual with disc
+constraints (method "dual") or the penalty (method "penalty", its ε). The fixed point is needed for the
+case's Tresca too: its bound on the contact set is not a convex problem (docs/theory.md §9a).
 ``attach_friction`` adds the friction force to the shell's balance and the per-punch ``friction`` entry of
 summary.json. Frictionless cases never come here: their results are today's, bit for bit.
 """
@@ -48,16 +48,12 @@ def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float
     tresca_g = top.tresca_bounds(op.weights, np.array([s.bound if s.model == "tresca" else 0.0 for s in specs]))
     scale = np.linalg.norm(op.grad, axis=0)
 
-    # the active set's Newton gates the Tresca bounds by its own closed set (``on_contact``): the normal and
-    # tangential sets are found together, and the fixed point runs only for Coulomb
-    gated = method != "active-set"
-
     def bounds(Lam: np.ndarray) -> np.ndarray:
-        return mu * scale * np.maximum(Lam, 0.0) + (np.where(Lam > 0, tresca_g, 0.0) if gated else tresca_g)
+        return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
 
     if method == "active-set":
         options = {"factorization": setup.factorization if setup.screen is None else None, "tol": tolerance,
-                   "cache": {}, "on_contact": True}
+                   "cache": {}}
         tresca, fixed_tol = solve_tresca_newton, COULOMB_TOL
 
         def warm(sol: ContactSolution) -> dict:
@@ -76,8 +72,6 @@ def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float
         def warm(sol: ContactSolution) -> dict:
             return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, **options)
-    if not sol.info.get("law", True):  # the Newton's contact sets cycled (solvers.tresca_newton)
-        record.converged, record.cycle = False, True
     return sol, {"operator": top, "record": record, "method": sol.method, "fallback": sol.info.get("fallback")}
 
 

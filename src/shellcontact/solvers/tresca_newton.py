@@ -15,9 +15,9 @@ T̃ = g T/max(g, |T|) (HSW's damping of T in the derivative, which keeps the mat
 solution). With U = A⁻¹(F + BᵀΛ + CᵀT), gap and σ are affine in y through Ŝ = B̂A⁻¹B̂ᵀ, so the system is
 dense of order |𝒜| + 2·#{g_j > 0}: its normal block comes from ``schur.Workspace`` (columns of S only for
 rows that were ever closed, cached), the pair columns A⁻¹C_jᵀ from blocked solves with the same
-factorisation, kept in ``cache`` between calls (Coulomb's fixed point changes only g); with the bounds on the
-contact set only (``on_contact``) only the closed rows' pairs enter. The iterate's gaps and slips come from
-one solve for U per iteration, so open rows cost nothing.
+factorisation (without refinement: the steps use the true gaps and slips, so round-off in Ŝ is corrected
+like iterative refinement), kept in ``cache`` between calls (Coulomb's fixed point changes only g). The
+iterate's gaps and slips come from one solve for U per iteration, so open rows cost nothing.
 
 Stops when the sets repeat and the equations' residual (NCP functions scaled by the largest force and the
 bound) is ≤ tol. Where the sets cycle or the iterations run out (the HSW iteration has no global
@@ -36,7 +36,7 @@ import scipy.sparse as sp
 from ..linalg import Factorization
 from .qp import ContactQP, ContactSolution, check_arguments
 from .schur import Workspace
-from .tresca import _check, _pair_rows, _solves, friction_residuals, solve_tresca_dual
+from .tresca import _BLOCK, _check, _pair_rows, friction_residuals, solve_tresca_dual
 
 #: iterations without a new smallest residual after which the dual takes over (the sets wander: 50 iterations
 #: without converging on the 8 × 8 panel at 1e8 Pa)
@@ -50,7 +50,11 @@ def _pair_solves(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, ws: Workspa
     X: dict = cache.setdefault("X", {})
     new = np.array([j for j in pairs if j not in X], dtype=int)
     if new.size:
-        Xn = _solves(C[_pair_rows(new)], ws.fact)
+        RT = C[_pair_rows(new)].T.tocsc()
+        Xn = np.empty((qp.n, RT.shape[1]))
+        for j0 in range(0, RT.shape[1], _BLOCK):  # blocked: a dense n × 2p right-hand side would not fit at 216k
+            cols = slice(j0, min(RT.shape[1], j0 + _BLOCK))
+            Xn[:, cols] = ws.fact.solve_many(RT[:, cols].toarray(), refine=False)
         for i, j in enumerate(new):
             X[j] = Xn[:, 2 * i:2 * i + 2]
     return np.hstack([X[j] for j in pairs]) if len(pairs) else np.zeros((qp.n, 0))
@@ -92,15 +96,10 @@ def _solve_equilibrated(J: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, tol: float = 1e-10,
                         max_iterations: int = 50, factorization: Factorization | None = None,
-                        initial: np.ndarray | None = None, cache: dict | None = None,
-                        on_contact: bool = False) -> ContactSolution:
+                        initial: np.ndarray | None = None, cache: dict | None = None) -> ContactSolution:
     """Tresca friction by semismooth Newton on the open/closed and stick/slip sets (module docstring).
     Arguments as ``solve_tresca_dual``: ``initial`` a start y = (Λ, T) (m + 2m), ``cache`` a dict kept between
-    calls on the same QP, C and c. Pairs with g_j = 0 have T_j = 0 and leave the system. ``on_contact``: the
-    bound g_j holds only where row j is closed (T_j = 0 on open rows: the case's Tresca, docs/theory.md §9a),
-    with the closed set of each iterate; the law is then not a convex QP and may have no solution — where
-    the sets cycle, the result is the dual's on the bounds of the last closed set, ``info["fallback"]``
-    "cycle", and ``info["law"]`` False."""
+    calls on the same QP, C and c. Pairs with g_j = 0 have T_j = 0 and leave the system."""
     check_arguments(tol, max_iterations)
     C, c, g = _check(qp, C, c, g)
     t0 = time.perf_counter()
@@ -121,15 +120,13 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     best, since_best = np.inf, 0
     fallback = None
     it = 0
-    closed = Lam > 0
     for it in range(1, max_iterations + 1):
         U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
         gap, sigma = qp.gap(U), (C @ U - c).reshape(-1, 2)
         lam_scale = max(float(Lam.max(initial=0.0)), float(g.max(initial=0.0)), 1e-300)
         cn = lam_scale / ws.length_scale(gap)
         closed = Lam - cn * gap > 0
-        # the pairs in the system (the rest have T_j = 0): every candidate, or (on_contact) the closed ones
-        pairs = np.flatnonzero(candidates & closed) if on_contact else np.flatnonzero(candidates)
+        pairs = np.flatnonzero(candidates)  # the pairs in the system (the rest have T_j = 0)
         Xp = _pair_solves(qp, C, pairs, ws, cache)
         ct = cache.setdefault("ct", {})
         for j in pairs:
@@ -140,10 +137,9 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
         Tp, sig = T.reshape(-1, 2)[pairs], sigma[pairs]
         z, rt = _tangential_ncp(Tp, sig, b, cp)
         rn = Lam - np.maximum(0.0, Lam - cn * gap)
-        r_open = float(np.abs(T.reshape(-1, 2)[candidates & ~np.isin(np.arange(m), pairs)]).max(initial=0.0))
-        resid = max(float(np.abs(rn).max(initial=0.0)), float(np.abs(rt).max(initial=0.0)), r_open) / lam_scale
+        resid = max(float(np.abs(rn).max(initial=0.0)), float(np.abs(rt).max(initial=0.0))) / lam_scale
         slip = np.linalg.norm(z, axis=1) >= b
-        key = (closed.tobytes(), pairs.tobytes(), slip.tobytes())
+        key = (closed.tobytes(), slip.tobytes())
         history.append({"iteration": it, "closed": int(closed.sum()), "stick": int((~slip).sum()),
                         "slip": int(slip.sum()), "residual": resid})
         if resid <= tol:
@@ -189,24 +185,20 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     else:
         fallback = "iterations"
     t3 = time.perf_counter()
-    if fallback is not None:  # the dual from this iterate (module docstring), on the last closed set's bounds
-        g_used = np.where(closed, g, 0.0) if on_contact else g
-        sol = solve_tresca_dual(qp, C, c, g_used, tol=tol, factorization=ws.fact,
+    if fallback is not None:  # the dual from this iterate (module docstring)
+        sol = solve_tresca_dual(qp, C, c, g, tol=tol, factorization=ws.fact,
                                 initial=np.concatenate([np.maximum(Lam, 0.0), T]))
         sol.method = "tresca-active-set"
         sol.iterations += it
         sol.history = history + sol.history
-        # the law on the contact set holds if the dual's contact set is the one whose bounds it used
-        law = not on_contact or bool(np.array_equal((sol.Lambda > 0) & (g > 0), (g_used > 0)))
-        sol.info.update(fallback=fallback, law=law)
+        sol.info["fallback"] = fallback
         sol.timings = {"factorization": t1 - t0, "newton": t3 - t1, "dual": sol.timings["total"],
                        "total": time.perf_counter() - t0}
         return sol
     U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
-    g_used = np.where(Lam > 0, g, 0.0) if on_contact else g
-    res = friction_residuals(qp, C, c, g_used, U, Lam, T)
+    res = friction_residuals(qp, C, c, g, U, Lam, T)
     return ContactSolution(
         U=U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=None, iterations=it, residuals=res,
         method="tresca-active-set", history=history, energy=qp.energy(U),
         timings={"factorization": t1 - t0, "newton": time.perf_counter() - t1, "total": time.perf_counter() - t0},
-        info={"T": T, "slip": C @ U - c, "bounds": g_used, "gap": qp.gap(U), "fallback": None, "law": True})
+        info={"T": T, "slip": C @ U - c, "bounds": g, "gap": qp.gap(U), "fallback": None})
