@@ -34,8 +34,9 @@ import scipy.linalg as la
 import scipy.sparse as sp
 
 from ..linalg import Factorization
+from .active_set import solve_active_set
 from .qp import ContactQP, ContactSolution, check_arguments
-from .schur import Workspace
+from .schur import Workspace, deepest_violations, default_growth
 from .tresca import _BLOCK, _check, _pair_rows, friction_residuals, solve_tresca_dual
 
 #: iterations without a new smallest residual after which the dual takes over (the sets wander: 50 iterations
@@ -111,7 +112,16 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     candidates = g > 0
     t1 = time.perf_counter()
 
-    Lam = np.zeros(m) if initial is None else np.maximum(np.asarray(initial[:m], float), 0.0)
+    if initial is None:  # from the frictionless solution (``active_set``, with its globalisation)
+        free = solve_active_set(qp, tol=tol, factorization=ws.fact)
+        if not np.any(candidates):
+            free.method = "tresca-active-set"
+            free.info.update(T=np.zeros(2 * m), slip=C @ free.U - c, bounds=g, gap=qp.gap(free.U), fallback=None)
+            return free
+        Lam = free.Lambda.copy()
+    else:
+        Lam = np.maximum(np.asarray(initial[:m], float), 0.0)
+    growth = default_growth(ws)
     T = np.zeros(2 * m) if initial is None else np.asarray(initial[m:], float).copy()
     T.reshape(-1, 2)[~candidates] = 0.0
     history: list = []
@@ -125,7 +135,10 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
         gap, sigma = qp.gap(U), (C @ U - c).reshape(-1, 2)
         lam_scale = max(float(Lam.max(initial=0.0)), float(g.max(initial=0.0)), 1e-300)
         cn = lam_scale / ws.length_scale(gap)
-        closed = Lam - cn * gap > 0
+        # the closed set as in ``active_set``: the rows still pulling, and of the penetrated rows the deepest
+        # (``schur.deepest_violations``); all penetrated rows at once wandered (421 → 109 rows in 16 steps, 32 × 32)
+        keep = Lam > 0
+        closed = keep | deepest_violations(gap + tol * ws.length_scale(gap), ~keep, growth, int(keep.sum()))
         pairs = np.flatnonzero(candidates)  # the pairs in the system (the rest have T_j = 0)
         Xp = _pair_solves(qp, C, pairs, ws, cache)
         ct = cache.setdefault("ct", {})
