@@ -125,7 +125,7 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     T = np.zeros(2 * m) if initial is None else np.asarray(initial[m:], float).copy()
     T.reshape(-1, 2)[~candidates] = 0.0
     history: list = []
-    seen: set = set()
+    seen: dict = {}
     last = None
     best, since_best = np.inf, 0
     fallback = None
@@ -161,10 +161,10 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
             if history[-2]["residual"] <= resid:
                 fallback = None if resid <= _FLOOR * tol else "stalled"
                 break
-        elif key in seen:  # a cycle of sets
-            fallback = "cycle"
+        elif key in seen and seen[key] <= resid:  # a cycle of sets (a revisit with a smaller residual is not:
+            fallback = "cycle"  # the slip directions differ)
             break
-        seen.add(key)
+        seen[key] = resid
         last = key
         if resid < best:
             best, since_best = resid, 0
