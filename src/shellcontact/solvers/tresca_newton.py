@@ -7,8 +7,10 @@ The law, written as equations with c_n, c_t > 0 (``solvers.tresca`` for C, c, g;
     Λ_i = max(0, Λ_i − c_n gap_i)                      (normal: Λ ≥ 0, gap ≥ 0, Λ gap = 0)
     max(g_j, |z_j|) T_j = g_j z_j,  z_j = T_j − c_t,j σ_j   (tangential: T_j = P_{|·| ≤ g_j}(z_j))
 
-Each iteration takes the sets from the current iterate — closed 𝒜 = {Λ_i − c_n gap_i > 0}, stick
-𝒮 = {|z_j| < g_j}, slip ℒ = the other pairs with g_j > 0 — and solves the Newton system in y = (Λ, T):
+It starts from the frictionless active set (``active_set``; or from ``initial``). Each iteration takes the
+sets from the current iterate — closed 𝒜 = the rows still pulling (Λ_i > 0) and the deepest penetrated rows
+(``schur.deepest_violations``, as the frictionless active set), stick 𝒮 = {|z_j| < g_j}, slip ℒ = the other
+pairs with g_j > 0 — and solves the Newton system in y = (Λ, T):
 Λ_i = 0 off 𝒜, gap_i = 0 on 𝒜, σ_j = 0 on 𝒮, and on ℒ the linearised slip law
 [T̃ nᵀ + (|z| − g) I] T_j − c_t [T̃ nᵀ − g I] σ_j = (the same at the iterate) − F_j, n = z/|z|,
 T̃ = g T/max(g, |T|) (HSW's damping of T in the derivative, which keeps the matrix regular away from the
@@ -19,10 +21,11 @@ factorisation (without refinement: the steps use the true gaps and slips, so rou
 like iterative refinement), kept in ``cache`` between calls (Coulomb's fixed point changes only g). The
 iterate's gaps and slips come from one solve for U per iteration, so open rows cost nothing.
 
-Stops when the sets repeat and the equations' residual (NCP functions scaled by the largest force and the
-bound) is ≤ tol. Where the sets cycle or the iterations run out (the HSW iteration has no global
-convergence proof), it hands over to the dual (``solve_tresca_dual``, MPGP, which converges from any start)
-warm-started from its iterate; ``info["fallback"]`` says so.
+Stops when the equations' residual (NCP functions scaled by the largest force and bound) is ≤ tol, or
+≤ 1000·tol once the sets hold and it stops falling (round-off). Where a set returns with no smaller
+residual, the residual has not fallen for ``PATIENCE`` iterations, or the iterations run out (the HSW
+iteration has no global convergence proof), it hands over to the dual (``solve_tresca_dual``, MPGP, which
+converges from any start) warm-started from its iterate; ``info["fallback"]`` says so.
 """
 
 from __future__ import annotations
