@@ -2,9 +2,11 @@
 
 ``has_friction(case)`` says whether any punch has friction or a slide; then ``solve_friction`` replaces the
 frictionless contact solve: Tresca (a bound g in Pa, acting on the rows in contact: the bound of row i is
-ω_i g where Λ_i > 0, by the fixed point on the contact set) or Coulomb (μ, the fixed point g = μ|∇Z|Λ), each
-by the dual with disc constraints (methods "dual" and "active-set") or by the penalty (method "penalty",
-its ε). ``attach_friction`` adds the friction force to the shell's balance and the per-punch ``friction`` entry of
+ω_i g where Λ_i > 0) or Coulomb (μ, the fixed point g = μ|∇Z|Λ), each Tresca problem of the fixed point
+solved by the semismooth Newton of ``solvers.tresca_newton`` (method "active-set"), the dual with disc
+constraints (method "dual") or the penalty (method "penalty", its ε). The fixed point is needed for the
+case's Tresca too: its bound on the contact set is not a convex problem (docs/theory.md §9a).
+``attach_friction`` adds the friction force to the shell's balance and the per-punch ``friction`` entry of
 summary.json. Frictionless cases never come here: their results are today's, bit for bit.
 """
 
@@ -20,6 +22,7 @@ from ..linalg import factorize
 from ..problem.case import Case
 from ..solvers.qp import ContactSolution
 from ..solvers.tresca import solve_tresca_dual, solve_tresca_penalty
+from ..solvers.tresca_newton import solve_tresca_newton
 from .validity import ResultWarning
 
 #: the penalty's normal forces carry Newton's round-off (changes of ~3e-9 of the largest bound between
@@ -48,7 +51,14 @@ def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float
     def bounds(Lam: np.ndarray) -> np.ndarray:
         return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
 
-    if method == "penalty":
+    if method == "active-set":
+        options = {"factorization": setup.factorization if setup.screen is None else None, "tol": tolerance,
+                   "cache": {}}
+        tresca, fixed_tol = solve_tresca_newton, COULOMB_TOL
+
+        def warm(sol: ContactSolution) -> dict:
+            return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
+    elif method == "penalty":
         options: dict[str, Any] = {"epsilon": setup.eps, "tol": tolerance}
         tresca, fixed_tol = solve_tresca_penalty, PENALTY_FIXED_POINT_TOL
 
@@ -62,7 +72,7 @@ def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float
         def warm(sol: ContactSolution) -> dict:
             return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, **options)
-    return sol, {"operator": top, "record": record, "method": sol.method}
+    return sol, {"operator": top, "record": record, "method": sol.method, "fallback": sol.info.get("fallback")}
 
 
 def attach_friction(result: Any, friction: dict) -> None:
@@ -79,7 +89,14 @@ def attach_friction(result: Any, friction: dict) -> None:
         entry["fixed_point"] = record.summary()
         entry["method"] = friction["method"]
     result.contact.friction = entries
-    if not record.converged or record.contraction > COULOMB_CONTRACTION:
+    if record.cycle:
+        text = ("friction: the contact set alternates between sets that each, with the Tresca bound on its rows, "
+                "close different rows: the Tresca law on the contact set has no solution among them (the bound "
+                "exceeds what the contact pressure can hold without lifting the shell; docs/theory.md §9a) and "
+                "this result is not one; lower the Tresca bound or the slide, or use Coulomb friction")
+        result.info.setdefault("warnings", []).append(ResultWarning("friction_no_solution", text))
+        print(f"warning: {text}", file=sys.stderr)
+    elif not record.converged or record.contraction > COULOMB_CONTRACTION:
         state = (f"did not converge in {record.iterations} iterations" if not record.converged
                  else f"contracts only by {record.contraction:.3g} per iteration (> {COULOMB_CONTRACTION})")
         text = (f"friction: the fixed point of the friction bounds on the normal forces {state}: the static friction "

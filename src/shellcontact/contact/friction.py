@@ -148,10 +148,13 @@ class CoulombRecord:
     changes: list[float]
     contraction: float
     converged: bool
+    #: the bounds returned to an earlier iterate's exactly (a cycle of contact sets: the Tresca bound on the
+    #: contact set then has no solution among them, docs/theory.md §9a); the fixed point stopped there
+    cycle: bool = False
 
     def summary(self) -> dict:
         return {"iterations": self.iterations, "contraction": self.contraction, "converged": self.converged,
-                "changes_N": self.changes}
+                "cycle": self.cycle, "changes_N": self.changes}
 
 
 def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndarray], np.ndarray],
@@ -169,7 +172,8 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
     sol = tresca(qp, C, c, np.zeros(qp.m), **solver_options)
     g = bounds(sol.Lambda)
     changes: list[float] = []
-    converged = False
+    converged = cycle = False
+    seen = {g.tobytes()}
     for _ in range(max_iterations):
         sol = tresca(qp, C, c, g, **solver_options, **(warm(sol) if warm is not None else {}))
         g_new = bounds(sol.Lambda)
@@ -178,11 +182,15 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
         if changes[-1] <= fixed_point_tol * max(float(g.max(initial=0.0)), 1e-300):
             converged = True
             break
+        if g.tobytes() in seen:  # back to earlier bounds: the same solves again (a cycle of contact sets)
+            cycle = True
+            break
+        seen.add(g.tobytes())
     floor = 1e3 * fixed_point_tol * max(float(g.max(initial=0.0)), 1e-300)
     above = [d for d in changes if d > floor]  # the geometric mean ratio: the changes oscillate (×1.7 in
     # one step, ×0.75 on average over 46 iterations on the 32 × 32 panel), the largest ratio would mislead
     q = (above[-1] / above[0]) ** (1.0 / (len(above) - 1)) if len(above) > 1 else 0.0
-    record = CoulombRecord(len(changes), changes, float(q), converged)
+    record = CoulombRecord(len(changes), changes, float(q), converged, cycle)
     sol.info["bounds_used"] = sol.info["bounds"]
     sol.info["bounds"] = g  # the bounds of the final multipliers (equal to those used, to tol, when converged)
     return sol, record

@@ -1,7 +1,8 @@
 """A punch's friction and slide keys (MODEL.md §11): ``punch.<i>.friction`` and ``punch.<i>.slide``.
 
 ``friction`` is either Coulomb's coefficient μ ≥ 0 (a number; 0, the default, is frictionless and gives
-today's results bit for bit) or a table ``{ model = "tresca", bound = g }`` with the slip bound g ≥ 0 (Pa).
+today's results bit for bit) or a table ``{ model = "tresca", bound = g }`` with the slip bound g ≥ 0 (Pa); a
+table with a ``bound`` and no ``model`` is Tresca (so that ``--set punch.0.friction.bound=1e7`` is enough).
 ``slide = [dx, dy, dz]`` (m, global frame) is a prescribed rigid translation of the punch tangent to its
 surface; its component along the punch's direction of travel is refused (that is the indentation's job).
 """
@@ -34,7 +35,7 @@ FRICTION = Table("friction", (
 FRICTION_KEYS = (
     Key("friction", "number", "Coulomb's friction coefficient μ (0: frictionless), or the table "
         "`{ model = \"tresca\", bound = g }` (g in Pa)", lo=0.0, hi=MU_MAX, default=0.0,
-        allowed=f"0 ≤ μ ≤ {MU_MAX:g}, or a table"),
+        allowed=f"0 ≤ μ ≤ {MU_MAX:g}, or a table", table=FRICTION),  # its table's keys: ``case.key_kind``
     Key("slide", "vector", "a rigid translation of the punch tangent to its surface (friction drags the shell); "
         "its component along `direction` is refused", unit="length", default=None, default_doc="–"),
 )
@@ -56,6 +57,8 @@ class FrictionSpec:
 def parse_friction(raw: Any, where: str) -> FrictionSpec:
     """``punch.<i>.friction`` (module docstring); errors name the key and the allowed range."""
     if isinstance(raw, dict):
+        if "model" not in raw and "bound" in raw and "coefficient" not in raw:  # ``--set punch.0.friction.bound=g``
+            raw = {**raw, "model": "tresca"}
         v = FRICTION.parse(raw, where)
         if v["model"] == "tresca":
             if v["bound"] is None or v["coefficient"] is not None:

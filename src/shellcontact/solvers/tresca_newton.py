@@ -1,0 +1,220 @@
+"""Tresca friction by the exact primal method: a primal–dual active set / semismooth Newton on the normal
+open/closed and the tangential stick/slip sets together (Hüeber, Stadler & Wohlmuth, SIAM J. Sci. Comput.
+30 (2008) 572–596, their Tresca algorithm, in the multipliers; MODEL.md §11, docs/theory.md §9a).
+
+The law, written as equations with c_n, c_t > 0 (``solvers.tresca`` for C, c, g; gap = B U + G, σ = C U − c):
+
+    Λ_i = max(0, Λ_i − c_n gap_i)                      (normal: Λ ≥ 0, gap ≥ 0, Λ gap = 0)
+    max(g_j, |z_j|) T_j = g_j z_j,  z_j = T_j − c_t,j σ_j   (tangential: T_j = P_{|·| ≤ g_j}(z_j))
+
+It starts from the frictionless active set (``active_set``; or from ``initial``). Each iteration takes the
+sets from the current iterate — closed 𝒜 = the rows still pulling (Λ_i > 0) and the deepest penetrated rows
+(``schur.deepest_violations``, as the frictionless active set), stick 𝒮 = {|z_j| < g_j}, slip ℒ = the other
+pairs with g_j > 0 — and solves the Newton system in y = (Λ, T):
+Λ_i = 0 off 𝒜, gap_i = 0 on 𝒜, σ_j = 0 on 𝒮, and on ℒ the linearised slip law
+[T̃ nᵀ + (|z| − g) I] T_j − c_t [T̃ nᵀ − g I] σ_j = (the same at the iterate) − F_j, n = z/|z|,
+T̃ = g T/max(g, |T|) (HSW's damping of T in the derivative, which keeps the matrix regular away from the
+solution). With U = A⁻¹(F + BᵀΛ + CᵀT), gap and σ are affine in y through Ŝ = B̂A⁻¹B̂ᵀ, so the system is
+dense of order |𝒜| + 2·#{g_j > 0}: its normal block comes from ``schur.Workspace`` (columns of S only for
+rows that were ever closed, cached), the pair columns A⁻¹C_jᵀ from blocked solves with the same
+factorisation (without refinement: the steps use the true gaps and slips, so round-off in Ŝ is corrected
+like iterative refinement), kept in ``cache`` between calls (Coulomb's fixed point changes only g). The
+iterate's gaps and slips come from one solve for U per iteration, so open rows cost nothing.
+
+Stops when the equations' residual (NCP functions scaled by the largest force and bound) is ≤ tol, or
+≤ 1000·tol once the sets hold and it stops falling (round-off). Where a set returns with no smaller
+residual, the residual has not fallen for ``PATIENCE`` iterations, or the iterations run out (the HSW
+iteration has no global convergence proof), it hands over to the dual (``solve_tresca_dual``, MPGP, which
+converges from any start) warm-started from its iterate; ``info["fallback"]`` says so.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg as la
+import scipy.sparse as sp
+
+from ..linalg import Factorization
+from .active_set import solve_active_set
+from .qp import ContactQP, ContactSolution, check_arguments
+from .schur import Workspace, deepest_violations, default_growth
+from .tresca import _BLOCK, _check, _pair_rows, friction_residuals, solve_tresca_dual
+
+#: iterations without a new smallest residual after which the dual takes over (the sets wander: 50 iterations
+#: without converging on the 8 × 8 panel at 1e8 Pa)
+PATIENCE = 8
+#: where the sets repeat but the residual no longer falls (its round-off), the residual accepted, relative to tol
+_FLOOR = 1e3
+
+
+def _pair_solves(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, ws: Workspace, cache: dict) -> np.ndarray:
+    """A⁻¹C_jᵀ for the pairs ``pairs`` (n × 2·len(pairs)), solved once per pair and kept in ``cache["X"]``."""
+    X: dict = cache.setdefault("X", {})
+    new = np.array([j for j in pairs if j not in X], dtype=int)
+    if new.size:
+        RT = C[_pair_rows(new)].T.tocsc()
+        Xn = np.empty((qp.n, RT.shape[1]))
+        for j0 in range(0, RT.shape[1], _BLOCK):  # blocked: a dense n × 2p right-hand side would not fit at 216k
+            cols = slice(j0, min(RT.shape[1], j0 + _BLOCK))
+            Xn[:, cols] = ws.fact.solve_many(RT[:, cols].toarray(), refine=False)
+        for i, j in enumerate(new):
+            X[j] = Xn[:, 2 * i:2 * i + 2]
+    return np.hstack([X[j] for j in pairs]) if len(pairs) else np.zeros((qp.n, 0))
+
+
+def _tangential_ncp(T: np.ndarray, sig: np.ndarray, g: np.ndarray, ct: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """z = T − c_t σ and the residual T − P_g(z) of the pairs (p, 2)."""
+    z = T - ct[:, None] * sig
+    r = np.linalg.norm(z, axis=1)
+    proj = z * np.divide(g, np.maximum(r, g), out=np.zeros_like(g), where=g > 0)[:, None]
+    return z, T - proj
+
+
+def _system(ws: Workspace, qp: ContactQP, C: sp.csr_matrix, A: np.ndarray, pairs: np.ndarray, Xp: np.ndarray,
+            Lam: np.ndarray, Tp: np.ndarray, gap: np.ndarray, sig: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The Newton matrix with gap rows on 𝒜 and σ rows on the pairs (stick as they are; the caller rewrites the
+    slip rows), and its right-hand side: the affine offsets of gap_𝒜 and σ_P in (Λ_𝒜, T_P) from the TRUE gaps
+    and slips of the iterate (not from c0 + Ŝy: the columns of Ŝ carry round-off, and the true residual makes
+    each step a refinement too)."""
+    SAP = qp.B[A] @ Xp
+    SPP = C[_pair_rows(pairs)] @ Xp
+    k, p2 = A.size, 2 * pairs.size
+    J = np.zeros((k + p2, k + p2))
+    J[:k, :k], J[:k, k:] = ws.block(A), SAP
+    J[k:, :k], J[k:, k:] = SAP.T, 0.5 * (SPP + SPP.T)
+    rhs = np.empty(k + p2)
+    rhs[:k] = -(gap[A] - ws.Sx(Lam)[A] - SAP @ Tp.ravel())
+    rhs[k:] = -(sig.ravel() - Xp.T @ (qp.B.T @ Lam) - SPP @ Tp.ravel())
+    return J, rhs
+
+
+def _solve_equilibrated(J: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """J y = rhs, equilibrated: the gap rows (m/N) and the slip rows (N) differ by ~1e12, which LU's pivoting
+    mixes (unequilibrated, the steps stalled at 3e-5 relative on the 8 × 8 panel)."""
+    rs = 1.0 / np.maximum(np.abs(J).max(axis=1, initial=0.0), 1e-300)
+    cs = 1.0 / np.maximum(np.abs(J * rs[:, None]).max(axis=0, initial=0.0), 1e-300)
+    return cs * la.lu_solve(la.lu_factor(J * rs[:, None] * cs), rhs * rs)
+
+
+def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, tol: float = 1e-10,
+                        max_iterations: int = 50, factorization: Factorization | None = None,
+                        initial: np.ndarray | None = None, cache: dict | None = None) -> ContactSolution:
+    """Tresca friction by semismooth Newton on the open/closed and stick/slip sets (module docstring).
+    Arguments as ``solve_tresca_dual``: ``initial`` a start y = (Λ, T) (m + 2m), ``cache`` a dict kept between
+    calls on the same QP, C and c. Pairs with g_j = 0 have T_j = 0 and leave the system."""
+    check_arguments(tol, max_iterations)
+    C, c, g = _check(qp, C, c, g)
+    t0 = time.perf_counter()
+    cache = {} if cache is None else cache
+    if "ws" not in cache:
+        cache["ws"] = Workspace(qp, factorization)
+    ws: Workspace = cache["ws"]
+    m = qp.m
+    candidates = g > 0
+    t1 = time.perf_counter()
+
+    if initial is None:  # from the frictionless solution (``active_set``, with its globalisation)
+        free = solve_active_set(qp, tol=tol, factorization=ws.fact)
+        if not np.any(candidates):
+            free.method = "tresca-active-set"
+            free.info.update(T=np.zeros(2 * m), slip=C @ free.U - c, bounds=g, gap=qp.gap(free.U), fallback=None)
+            return free
+        Lam = free.Lambda.copy()
+    else:
+        Lam = np.maximum(np.asarray(initial[:m], float), 0.0)
+    growth = default_growth(ws)
+    T = np.zeros(2 * m) if initial is None else np.asarray(initial[m:], float).copy()
+    T.reshape(-1, 2)[~candidates] = 0.0
+    history: list = []
+    seen: dict = {}
+    last = None
+    best, since_best = np.inf, 0
+    fallback = None
+    it = 0
+    for it in range(1, max_iterations + 1):
+        U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
+        gap, sigma = qp.gap(U), (C @ U - c).reshape(-1, 2)
+        lam_scale = max(float(Lam.max(initial=0.0)), float(g.max(initial=0.0)), 1e-300)
+        cn = lam_scale / ws.length_scale(gap)
+        # the closed set as in ``active_set``: the rows still pulling, and of the penetrated rows the deepest
+        # (``schur.deepest_violations``); all penetrated rows at once wandered (421 → 109 rows in 16 steps, 32 × 32)
+        keep = Lam > 0
+        closed = keep | deepest_violations(gap + tol * ws.length_scale(gap), ~keep, growth, int(keep.sum()))
+        pairs = np.flatnonzero(candidates)  # the pairs in the system (the rest have T_j = 0)
+        Xp = _pair_solves(qp, C, pairs, ws, cache)
+        ct = cache.setdefault("ct", {})
+        for j in pairs:
+            if j not in ct:  # c_t: 1 / the pair's flexibility
+                ct[j] = 2.0 / max(float(np.trace(C[_pair_rows(np.array([j]))] @ cache["X"][j])), 1e-300)
+        cp = np.array([ct[j] for j in pairs])
+        b = g[pairs]  # the bounds in force
+        Tp, sig = T.reshape(-1, 2)[pairs], sigma[pairs]
+        z, rt = _tangential_ncp(Tp, sig, b, cp)
+        rn = Lam - np.maximum(0.0, Lam - cn * gap)
+        resid = max(float(np.abs(rn).max(initial=0.0)), float(np.abs(rt).max(initial=0.0))) / lam_scale
+        slip = np.linalg.norm(z, axis=1) >= b
+        key = (closed.tobytes(), slip.tobytes())
+        history.append({"iteration": it, "closed": int(closed.sum()), "stick": int((~slip).sum()),
+                        "slip": int(slip.sum()), "residual": resid})
+        if resid <= tol:
+            break
+        if key == last:  # the sets held: Newton on the slip directions, quadratic until round-off
+            if history[-2]["residual"] <= resid:
+                fallback = None if resid <= _FLOOR * tol else "stalled"
+                break
+        elif key in seen and seen[key] <= resid:  # a cycle of sets (a revisit with a smaller residual is not:
+            fallback = "cycle"  # the slip directions differ)
+            break
+        seen[key] = resid
+        last = key
+        if resid < best:
+            best, since_best = resid, 0
+        elif (since_best := since_best + 1) >= PATIENCE:
+            fallback = "stalled"
+            break
+        A = np.flatnonzero(closed)
+        J, rhs = _system(ws, qp, C, A, pairs, Xp, Lam, Tp, gap, sig)
+        k = A.size
+        for j in np.flatnonzero(slip):  # slip rows: the linearised slip law (module docstring)
+            r = slice(k + 2 * j, k + 2 * j + 2)
+            nz = np.linalg.norm(z[j])
+            n = z[j] / nz
+            Tt = b[j] * Tp[j] / max(b[j], float(np.linalg.norm(Tp[j])))
+            M = np.outer(Tt, n) + (nz - b[j]) * np.eye(2)
+            N = cp[j] * (np.outer(Tt, n) - b[j] * np.eye(2))
+            Fj = nz * Tp[j] - b[j] * z[j]
+            rows = -N @ J[r]  # −c_t N (S_jA Λ_A + S_jP T_P)
+            rows[:, k + 2 * j:k + 2 * j + 2] += M
+            rhs[r] = M @ Tp[j] - N @ sig[j] - Fj - N @ rhs[r]
+            J[r] = rows
+        try:
+            y = _solve_equilibrated(J, rhs)
+        except (la.LinAlgError, ValueError):
+            fallback = "singular"
+            break
+        Lam = np.zeros(m)
+        Lam[A] = y[:k]
+        T = np.zeros(2 * m)
+        T.reshape(-1, 2)[pairs] = y[k:].reshape(-1, 2)
+    else:
+        fallback = "iterations"
+    t3 = time.perf_counter()
+    if fallback is not None:  # the dual from this iterate (module docstring)
+        sol = solve_tresca_dual(qp, C, c, g, tol=tol, factorization=ws.fact,
+                                initial=np.concatenate([np.maximum(Lam, 0.0), T]))
+        sol.method = "tresca-active-set"
+        sol.iterations += it
+        sol.history = history + sol.history
+        sol.info["fallback"] = fallback
+        sol.timings = {"factorization": t1 - t0, "newton": t3 - t1, "dual": sol.timings["total"],
+                       "total": time.perf_counter() - t0}
+        return sol
+    U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
+    res = friction_residuals(qp, C, c, g, U, Lam, T)
+    return ContactSolution(
+        U=U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=None, iterations=it, residuals=res,
+        method="tresca-active-set", history=history, energy=qp.energy(U),
+        timings={"factorization": t1 - t0, "newton": time.perf_counter() - t1, "total": time.perf_counter() - t0},
+        info={"T": T, "slip": C @ U - c, "bounds": g, "gap": qp.gap(U), "fallback": None})
