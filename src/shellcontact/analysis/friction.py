@@ -10,14 +10,18 @@ summary.json. Frictionless cases never come here: their results are today's, bit
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from typing import Any
 
 import numpy as np
 
 from ..contact.friction import COULOMB_CONTRACTION, COULOMB_TOL, TangentialOperator, solve_coulomb, tangential_operator
+from ..contact.operator import contact_operator
+from ..contact.punches import place_punches
 from ..linalg import factorize
 from ..problem.case import Case
+from ..problem.options import SolverOptions
 from ..solvers.qp import ContactSolution
 from ..solvers.tresca import solve_tresca_dual, solve_tresca_penalty
 from .validity import ResultWarning
@@ -32,14 +36,71 @@ def has_friction(case: Case) -> bool:
     return any(p.friction.active or p.slide is not None for p in case.punches)
 
 
-def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float) -> tuple[ContactSolution, dict]:
+def load_stages(case: Case) -> list[tuple[float, float]]:
+    """The load path (``[solver] steps``, ``path``): per step the fractions of the indentations and of the slides."""
+    n = case.solver.steps
+    if case.solver.path == "indent-then-slide":
+        return [(k / n, 0.0) for k in range(1, n + 1)] + [(1.0, k / n) for k in range(1, n + 1)]
+    return [(k / n, k / n) for k in range(1, n + 1)]
+
+
+def _staged(case: Case, indentation: float, slide: float) -> Case:
+    """``case`` with every punch's indentation and slide scaled (a punch in a fixed position stays where it is)."""
+    punches = tuple(dataclasses.replace(p, indentation=p.indentation * indentation,
+                                        slide=None if p.slide is None else p.slide * slide) for p in case.punches)
+    return dataclasses.replace(case, punches=punches)
+
+
+def solve_friction(case: Case, d: Any, setup: Any, opts: SolverOptions) -> tuple[ContactSolution, dict]:
     """The contact solve with friction on the discretisation ``d`` (``analysis.Discretization``) from the
-    ``analysis.ContactSetup`` ``setup``. Returns the solution of the reduced QP (``info`` holds T, slip, bounds)
-    and the friction record for ``attach_friction``."""
-    op, qp = d.operator, setup.qp
+    ``analysis.ContactSetup`` ``setup``, along the load path of ``[solver] steps`` and ``path``: each step's law
+    acts on the slip since the last step (σ carried per row as a global vector, 0 for a row new to the step).
+    Returns the last step's solution of the reduced QP (``info`` holds T, the total slip, bounds) and the friction
+    record for ``attach_friction``."""
+    stages = load_stages(case)
+    carried: dict[tuple[int, int, int], np.ndarray] = {}
+    steps: list[dict] = []
+    for k, (fi, fs) in enumerate(stages):
+        last = k == len(stages) - 1
+        if last and fi == 1.0 and fs == 1.0:
+            case_k, dk, qp = case, d, setup.qp  # the case itself (one step: exactly the one-shot solve)
+        else:
+            case_k = _staged(case, fi, fs)
+            op = contact_operator(d.space, place_punches(case_k.punches, case.shell, case.units), opts.contact_points)
+            dk = dataclasses.replace(d, operator=op, Br=op.B @ d.reduction.P, punches=op.punches)
+            qp = dk.qp()
+        sol, record, top = _solve_step(case_k, dk, setup, qp, opts, carried)
+        keys = _row_keys(dk.operator)
+        total = top.vectors(sol.info["slip"])  # (3, m) the slip of this step, global
+        carried = {key: carried.get(key, np.zeros(3)) + total[:, i] for i, key in enumerate(keys)}
+        if len(stages) > 1:
+            normal = sol.Lambda * np.linalg.norm(dk.operator.grad, axis=0)
+            punch_of = dk.operator.punch
+            steps.append({"indentation_fraction": fi, "slide_fraction": fs,
+                          "force": [[float(v) for v in f] for f in top.force(sol.info["T"])],
+                          "normal_force": [float(normal[punch_of == j].sum()) for j in range(len(case.punches))],
+                          "iterations": record.iterations, "converged": record.converged})
+    if len(stages) > 1:  # the reported slip is the total since the first step
+        slip_total = np.stack([carried[key] for key in _row_keys(d.operator)], axis=1)
+        sol.info["slip_increment"] = sol.info["slip"]
+        sol.info["slip"] = np.einsum("kdi,di->ik", top.tau, slip_total).ravel()
+    return sol, {"operator": top, "record": record, "method": sol.method, "steps": steps}
+
+
+def _row_keys(op: Any) -> list[tuple[int, int, int]]:
+    """A row's identity across the steps' operators on one mesh: (punch, vertex, facet)."""
+    return list(zip(op.punch.tolist(), op.vertex.tolist(), op.facet.tolist()))
+
+
+def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, carried: dict
+                ) -> tuple[ContactSolution, Any, TangentialOperator]:
+    """One step of the path: Tresca or Coulomb with the slides of ``case`` plus the slip carried from the last
+    step (``carried``: row key → global slip vector), so that the law acts on this step's slip."""
+    op = d.operator
     top = tangential_operator(d.space, op)
     C = (top.C @ d.reduction.P).tocsr()
-    c = top.offsets([p.slide for p in case.punches])
+    before = np.stack([carried.get(key, np.zeros(3)) for key in _row_keys(op)], axis=1) if op.m else np.zeros((3, 0))
+    c = top.offsets([p.slide for p in case.punches]) + np.einsum("kdi,di->ik", top.tau, before).ravel()
     specs = [case.punches[k].friction for k in op.punch]
     mu = np.array([s.coefficient if s.model == "coulomb" else 0.0 for s in specs])
     tresca_g = top.tresca_bounds(op.weights, np.array([s.bound if s.model == "tresca" else 0.0 for s in specs]))
@@ -48,21 +109,21 @@ def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float
     def bounds(Lam: np.ndarray) -> np.ndarray:
         return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
 
-    if method == "penalty":
-        options: dict[str, Any] = {"epsilon": setup.eps, "tol": tolerance}
+    if opts.method == "penalty":
+        options: dict[str, Any] = {"epsilon": setup.eps, "tol": opts.tolerance}
         tresca, fixed_tol = solve_tresca_penalty, PENALTY_FIXED_POINT_TOL
 
         def warm(sol: ContactSolution) -> dict:  # from the stuck state each time: from the last U, whose slips
             return {}  # are far from the new ones, Newton crawled (100 steps on the paper panel)
     else:
         fac = setup.factorization if setup.screen is None else factorize(qp.A)
-        options = {"factorization": fac, "tol": tolerance, "cache": {}}
+        options = {"factorization": fac, "tol": opts.tolerance, "cache": {}}
         tresca, fixed_tol = solve_tresca_dual, COULOMB_TOL
 
         def warm(sol: ContactSolution) -> dict:
             return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, **options)
-    return sol, {"operator": top, "record": record, "method": sol.method}
+    return sol, record, top
 
 
 def attach_friction(result: Any, friction: dict) -> None:
@@ -78,7 +139,19 @@ def attach_friction(result: Any, friction: dict) -> None:
         entry["units"] = {"force": "N", "stick_area": "m²", "slip_area": "m²", "max_slip": "m"}
         entry["fixed_point"] = record.summary()
         entry["method"] = friction["method"]
+    for j, entry in enumerate(entries):
+        if friction["steps"]:  # the load path: per step this punch's friction and normal force (N)
+            entry["steps"] = [{**{k: v for k, v in st.items() if k not in ("force", "normal_force")},
+                               "force": st["force"][j], "normal_force": st["normal_force"][j]}
+                              for st in friction["steps"]]
+            entry["units"]["steps"] = {"force": "N", "normal_force": "N"}
     result.contact.friction = entries
+    unconverged = [i + 1 for i, st in enumerate(friction["steps"]) if not st["converged"]]
+    if unconverged and record.converged:
+        text = (f"friction: the fixed point of the friction bounds did not converge in steps {unconverged} of the "
+                "load path; the slip carried from them is not a solution's")
+        result.info.setdefault("warnings", []).append(ResultWarning("friction_contraction", text))
+        print(f"warning: {text}", file=sys.stderr)
     if not record.converged or record.contraction > COULOMB_CONTRACTION:
         state = (f"did not converge in {record.iterations} iterations" if not record.converged
                  else f"contracts only by {record.contraction:.3g} per iteration (> {COULOMB_CONTRACTION})")
