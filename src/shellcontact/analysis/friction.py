@@ -19,6 +19,7 @@ import numpy as np
 from ..contact.friction import COULOMB_CONTRACTION, COULOMB_TOL, TangentialOperator, solve_coulomb, tangential_operator
 from ..contact.operator import contact_operator
 from ..contact.punches import place_punches
+from ..errors import InputError, SolverError
 from ..linalg import factorize
 from ..problem.case import Case
 from ..problem.options import SolverOptions
@@ -52,6 +53,79 @@ def _staged(case: Case, indentation: float, slide: float) -> Case:
 
 
 def solve_friction(case: Case, d: Any, setup: Any, opts: SolverOptions) -> tuple[ContactSolution, dict]:
+    """The contact solve with friction (``solve_path``); with a punch's ``tangential_force``, the slide along that
+    force which makes the friction force on the shell equal to it (``solve_pushed``)."""
+    pushed = [p for p in case.punches if p.tangential_force is not None]
+    return solve_pushed(case, pushed[0], d, setup, opts) if pushed else solve_path(case, d, setup, opts)
+
+
+def solve_pushed(case: Case, spec: Any, d: Any, setup: Any, opts: SolverOptions) -> tuple[ContactSolution, dict]:
+    """Force control along the surface: the slide s = α e (e = F/|F|) of punch ``spec`` with e·f(α) = |F|, f the
+    friction force on the shell from that punch. f is linear in α where the punch sticks and saturates at the
+    friction's capacity (μ × the normal force) where it slides: a secant step from the responses at α = 0 and
+    at a probe, then bracketing (×4) and the Illinois method to 1e-8 |F|. A force at or above the capacity (f stops
+    growing before reaching it) is refused: the punch would slide without bound."""
+    force = np.asarray(spec.tangential_force, float)
+    target = float(np.linalg.norm(force))
+    e = force / target
+    runs: list[tuple[float, float]] = []
+
+    def run(alpha: float) -> tuple[float, float, tuple[ContactSolution, dict]]:
+        for nudge in (1.0, 1.0 + 1e-6):  # the disc QP stalled at one slide of the sleeve test (MPGP's face step,
+            # solvers/disc_qp.py): a slide 1e-6 away is solved; a second failure is reported
+            punches = tuple(dataclasses.replace(p, slide=nudge * alpha * e, tangential_force=None) if p is spec else p
+                            for p in case.punches)
+            try:
+                out = solve_path(dataclasses.replace(case, punches=punches), d, setup, opts)
+                break
+            except SolverError:
+                if nudge != 1.0 or alpha == 0.0:
+                    raise
+        f = float(e @ out[1]["operator"].force(out[0].info["T"])[spec.index])
+        runs.append((nudge * alpha, f))
+        return nudge * alpha, f, out
+
+    def done(alpha: float, out: tuple[ContactSolution, dict]) -> tuple[ContactSolution, dict]:
+        out[1]["pushed"] = {"punch": spec.index, "slide": [float(v) for v in alpha * e], "evaluations": len(runs),
+                            "tangential_force": [float(v) for v in force]}
+        return out
+
+    tol = 1e-8 * target
+    _, f0, _ = run(0.0)
+    probe = 1e-3 * case.shell.thickness
+    probe, f1, out = run(probe)
+    if f1 - f0 <= 0.0:
+        raise InputError(f"{spec.where}.tangential_force", "the punch holds no force along it (it does not touch "
+                                                             "the shell, or its friction is 0 where it touches)")
+    lo, rlo, hi, rhi = 0.0, f0 - target, None, 0.0  # the bracket and its residuals f − |F|
+    if f1 > target:
+        hi, rhi = probe, f1 - target
+    else:
+        lo, rlo = probe, f1 - target
+    alpha, side = probe * (target - f0) / (f1 - f0), 0  # the secant: exact where the punch sticks
+    for _ in range(60):
+        alpha, f, out = run(alpha)
+        r = f - target
+        if abs(r) <= tol:
+            return done(alpha, out)
+        if r < 0:
+            if hi is None and r - rlo <= 1e-6 * target:  # no longer growing: the punch slides at f
+                raise InputError(f"{spec.where}.tangential_force",
+                                 f"{target:.6g} N is more than the friction holds: the punch slides without bound at "
+                                 f"{f:.6g} N (μ × the normal force; allowed: below it)")
+            lo, rlo = alpha, r
+            rhi = 0.5 * rhi if side == -1 else rhi  # Illinois: halve the stale end's residual
+            side = -1
+        else:
+            hi, rhi = alpha, r
+            rlo = 0.5 * rlo if side == 1 else rlo
+            side = 1
+        alpha = 4.0 * alpha if hi is None else lo + (hi - lo) * rlo / (rlo - rhi)
+    raise SolverError(f"{spec.where}.tangential_force: the slide that holds {target:.6g} N was not found in "
+                      f"{len(runs)} solves (last {runs[-1][1]:.6g} N at {runs[-1][0]:.4g} m)")
+
+
+def solve_path(case: Case, d: Any, setup: Any, opts: SolverOptions) -> tuple[ContactSolution, dict]:
     """The contact solve with friction on the discretisation ``d`` (``analysis.Discretization``) from the
     ``analysis.ContactSetup`` ``setup``, along the load path of ``[solver] steps`` and ``path``: each step's law
     acts on the slip since the last step (σ carried per row as a global vector, 0 for a row new to the step).
@@ -133,6 +207,7 @@ def attach_friction(result: Any, friction: dict) -> None:
     sol = result.contact.solution
     T, slip, g = sol.info["T"], sol.info["slip"], sol.info["bounds"]
     result.solution.extra_forces = result.solution.extra_forces + top.C.T @ T
+    sol.info["tangential"] = top  # the fields and the figure of friction (outputs.fields) read it
     record = friction["record"]
     entries = top.summary(result.contact.operator.weights, T, slip, g, result.contact.Lambda)
     for entry in entries:
@@ -145,6 +220,11 @@ def attach_friction(result: Any, friction: dict) -> None:
                                "force": st["force"][j], "normal_force": st["normal_force"][j]}
                               for st in friction["steps"]]
             entry["units"]["steps"] = {"force": "N", "normal_force": "N"}
+    pushed = friction.get("pushed")
+    if pushed is not None:  # force control along the surface: the slide found and the solves it took
+        entries[pushed["punch"]].update(slide=pushed["slide"], tangential_force=pushed["tangential_force"],
+                                        force_control_solves=pushed["evaluations"])
+        entries[pushed["punch"]]["units"].update(slide="m", tangential_force="N")
     result.contact.friction = entries
     unconverged = [i + 1 for i, st in enumerate(friction["steps"]) if not st["converged"]]
     if unconverged and record.converged:

@@ -418,6 +418,12 @@ def _case_from_dict(data: dict, source: str | Path | None, consent: CodeConsent 
         raise InputError("solver.steps", "a load path (steps > 1, path) is used only with friction or a slide "
                                          "(punch.<i>.friction, punch.<i>.slide): a frictionless solve is path "
                                          "independent")
+    pushed = [p for p in punches if p.tangential_force is not None]
+    if len(pushed) > 1:
+        raise InputError(f"{pushed[1].where}.tangential_force", "is allowed on one punch only (the others may slide)")
+    if pushed and solver.steps > 1:
+        raise InputError("solver.steps", "a load path (steps > 1) with a tangential force is not supported: give "
+                                         "the punch a slide, or steps = 1")
     loads = parse_loads(data.get("loads", {}))
     loads.check_functions(shell)
     for i, pt in enumerate(loads.points):
