@@ -70,8 +70,8 @@ def test_sleeve_friction_matches_1d_oracle():
         # friction forces to 1.4 % and 0.5 % (the total is a difference of slips in both directions, 4× smaller
         # than μN: small changes of the stick/slip split show amplified)
         assert s2["F"] == pytest.approx(s1.friction_force, rel=0.05)
-        # the law: |F| ≤ μ N, and every node that slips in 1D is in the 2D slip zone to a node or two (trapezoid
-        # lengths against the 2D vertex weights: measured 0.375 against 0.4 m, 0.396 against 0.4 m)
+        # the law: |F| ≤ μ N, and the slip lengths agree to a node or two (the 1D trapezoids cut to the zone against
+        # the 2D rows' weights: measured 0.375 against 0.375 m, 0.396 against 0.3875 m)
         assert abs(s2["F"]) <= MU * s2["N"]
         assert abs(s2["slip_length"] - s1.slip_length) <= 2 / nx
     e = [abs(s2["N"] / ref.normal_force - 1) for _, s2, _ in rows]
@@ -134,3 +134,19 @@ def test_load_path_without_friction_refused():
     d["solver"]["steps"] = 3
     with pytest.raises(InputError, match="^solver.steps: .*only with friction"):
         case_from_dict(d)
+
+
+@pytest.mark.parametrize("bound, measured", [(0.5, 2.7e-4), (2.0, 3.5e-4)])
+def test_tresca_sleeve_matches_1d_oracle(bound, measured):
+    """Tresca (a bound g in Pa on the points in contact, ω_i g per row; the 1D nodes' trapezoids cut to the zone are
+    the 2D rows' weights summed over φ, × 360): the same sleeve, nx = 40. Part sticks, part slips; the friction
+    force agrees to 2.7e-4 and 3.5e-4, the normal force to 2e-6, the slip length to a node."""
+    d = _case(40)
+    d["punch"][0]["friction"] = {"model": "tresca", "bound": bound}
+    c = shellcontact.solve(case_from_dict(d)).summary()["contact"][0]
+    f = c["friction"]
+    o = solve_sleeve_friction(SHELL, np.linspace(0.0, 1.0, 41), RS, ZONE, SLIDE, tresca=bound)
+    assert f["stick_area"] > 0 and f["slip_area"] > 0 and f["fixed_point"]["converged"]
+    assert c["total_normal_force"] * SCALE == pytest.approx(o.normal_force, rel=2e-5)
+    assert f["force"][0] * SCALE == pytest.approx(o.friction_force, rel=10 * measured)
+    assert abs(f["slip_area"] * SCALE / (2 * math.pi * A) - o.slip_length) <= 1.01 / 40

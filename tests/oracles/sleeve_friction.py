@@ -40,7 +40,7 @@ class FrictionSleeve1D:
 
     shell: Shell1D
     x: np.ndarray
-    weights: np.ndarray  # trapezoidal lengths of the zone's nodes (m): the 1D measure of a node's band
+    weights: np.ndarray  # the zone's nodes' trapezoidal lengths cut to the zone (m): the 1D measure of a node
     lam: np.ndarray
     T: np.ndarray
     slip: np.ndarray
@@ -100,11 +100,8 @@ is s_k + σ_prev). Raises RuntimeError if a fixed point does not converge to ``t
     S = np.asarray(Bh @ X, dtype=float)
     S = 0.5 * (S + S.T)
     b0 = np.concatenate([G, np.zeros(m)]) + np.asarray(Bh @ lu.solve(asm.F[free]), dtype=float)
-    h = np.diff(nodes)
-    weights = np.zeros(len(nodes))
-    weights[:-1] += h / 2
-    weights[1:] += h / 2
-    weights = weights[idx]
+    mids = np.concatenate([[nodes[0]], 0.5 * (nodes[1:] + nodes[:-1]), [nodes[-1]]])  # a node's trapezoid, cut to
+    weights = np.clip(mids[idx + 1], *zone) - np.clip(mids[idx], *zone)  # the zone (half at the zone's ends)
 
     def tresca_solve(g: np.ndarray, offset: np.ndarray) -> np.ndarray:
         """The Tresca dual with bounds g and slide offsets; pairs with g_i = 0 have T_i = 0 and leave the QP."""
