@@ -4,7 +4,9 @@
 frictionless contact solve: Tresca (a bound g in Pa, acting on the rows in contact: the bound of row i is
 ω_i g where Λ_i > 0, by the fixed point on the contact set) or Coulomb (μ, the fixed point g = μ|∇Z|Λ), each
 by the dual with disc constraints (methods "dual" and "active-set") or by the penalty (method "penalty",
-its ε). ``attach_friction`` adds the friction force to the shell's balance and the per-punch ``friction`` entry of
+its ε). ``[solver] steps``/``path`` make it a load path whose steps carry the slip (``solve_path``), and a punch's
+``tangential_force`` makes it force-controlled along the surface (``solve_pushed``, an outer iteration on the
+slide). ``attach_friction`` adds the friction force to the shell's balance and the per-punch ``friction`` entry of
 summary.json. Frictionless cases never come here: their results are today's, bit for bit.
 """
 
@@ -109,7 +111,9 @@ def solve_pushed(case: Case, spec: Any, d: Any, setup: Any, opts: SolverOptions)
         if abs(r) <= tol:
             return done(alpha, out)
         if r < 0:
-            if hi is None and r - rlo <= 1e-6 * target:  # no longer growing: the punch slides at f
+            # no longer growing (the punch slides at f), or growing only by the normal force's change past any
+            # slide a shell of this length can take
+            if hi is None and (r - rlo <= 1e-6 * target or alpha > case.shell.length):
                 raise InputError(f"{spec.where}.tangential_force",
                                  f"{target:.6g} N is more than the friction holds: the punch slides without bound at "
                                  f"{f:.6g} N (μ × the normal force; allowed: below it)")
