@@ -37,6 +37,7 @@ COARSE = {
     "pipe_transverse_bar": ("mesh.nx=16", "mesh.nphi=32", "mesh.refine=0", "mesh.pattern=crossed",
                             "mesh.phi_lines=[0.0,180.0,270.0]"),
     "band_clamp": ("mesh.nx=60", "mesh.nphi=12", "mesh.refine=0", "mesh.x_lines=[-0.0075,0.0,0.0075]"),
+    "band_clamp_slip": ("mesh.nx=60", "mesh.nphi=12", "mesh.refine=0", "mesh.x_lines=[-0.0075,0.0,0.0075]"),
     "saddle_support": ("mesh.nx=32", "mesh.nphi=32", "mesh.refine=0", "mesh.pattern=crossed",
                        "mesh.phi_lines=[0.0,180.0]"),
     "force_indentation_sweep": ("mesh.nx=16", "mesh.nphi=16", "mesh.refine=0"),
@@ -78,7 +79,7 @@ def test_every_example_has_coarse_settings_and_a_header():
 
 # relative imbalance |R + C + W| / scale measured on the COARSE meshes (bounds below: 5x these, at least 1e-9)
 IMBALANCE = {
-    "band_clamp": 7.1e-15, "force_indentation_sweep": 3.3e-4, "paper_panel": 2.8e-5,
+    "band_clamp": 7.1e-15, "band_clamp_slip": 5.4e-14, "force_indentation_sweep": 3.3e-4, "paper_panel": 2.8e-5,
     "pinched_cylinder_eighth": 5.6e-4, "pinched_cylinder_full": 4.2e-13, "pipe_rollers": 5.8e-3,
     "pipe_transverse_bar": 1.2e-4, "pressurized_cylinder": 3.3e-10, "ring_stiffness": 3.5e-13,
     "saddle_support": 4.5e-3, "scordelis_lo": 2.7e-5, "vessel_saddles": 1.0e-6,
@@ -136,6 +137,19 @@ def test_example_solves_in_equilibrium(path):
     assert np.linalg.norm(assembled - W) <= max(5 * IMBALANCE.get(path.stem, 2e-2), 1e-9) * scale
     assert np.all(np.abs(imbalance) <= bounds * 1.001 + 1e-9 * scale)
     assert relative <= max(5 * IMBALANCE.get(path.stem, 2e-2 / 5), 1e-9)
+
+
+
+def test_band_clamp_slip():
+    """The band clamp pulled 1 mm along the pipe with μ = 0.15: every point in contact slides, so the axial friction
+    force is the slip load μ × the clamping force (measured to 1.7e-12), axial (the radial components cancel), and
+    the clamping force is band_clamp's (the friction's bending of the wall changes it by 1e-5 measured)."""
+    c = contact(solved("band_clamp_slip"))
+    f, N, mu = c["friction"], c["total_normal_force"], solved("band_clamp_slip").case.punches[0].friction.coefficient
+    assert f["force"][0] == pytest.approx(mu * N, rel=1e-9)
+    assert np.hypot(*f["force"][1:]) <= 1e-9 * N
+    assert f["stick_area"] == 0.0 and f["slip_area"] > 0 and f["fixed_point"]["converged"]
+    assert N == pytest.approx(contact(solved("band_clamp"))["total_normal_force"], rel=1e-4)
 
 
 def test_pipe_transverse_bar():

@@ -44,11 +44,12 @@ ALLOWED = {
     "outputs.figures.maps": {"outputs.fields", "outputs.figures.common", "outputs.results"},
     "outputs.figures.deformed": {"outputs.fields", "outputs.figures.common"},
     "outputs.figures.sections": {"outputs.figures.common"},
+    "outputs.figures.friction": {"outputs.fields", "outputs.figures.common"},
     "outputs.figures.sweeps": {"outputs.figures.common", "units"},
     "outputs.figures.convergence": {"outputs.figures.common", "units"},
     "outputs.figures.study": {"outputs.figures.common", "units"},
     "outputs.figures.run": {"outputs.figures.common", "outputs.figures.contact", "outputs.figures.maps",
-                            "outputs.figures.deformed", "outputs.figures.sections"},
+                            "outputs.figures.deformed", "outputs.figures.sections", "outputs.figures.friction"},
     "outputs.figures": {"lazy"},  # the face: every figure's name, imported on first use
     "outputs.report": {"outputs.files", "units"},
     "outputs.transaction": {"errors", "outputs.files"},

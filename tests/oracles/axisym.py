@@ -444,41 +444,33 @@ class AxisymSolution:
 # --------------------------------------------------------------------------------------------
 # the solver
 # --------------------------------------------------------------------------------------------
-def solve(
+@dataclass
+class Assembly:
+    """The stiffness A (extended precision, full dof numbering) and load F of the 1D model on ``nodes``, with
+    the dof map ([u nodal | w, w' nodal | u bubbles | w bubbles]), the slope scaling and the supported dofs."""
+
+    A: sp.csr_matrix
+    F: np.ndarray
+    dofmap: np.ndarray
+    scale: np.ndarray
+    fixed: list
+    nn: int
+    nu: int
+    ndof: int
+
+
+def assemble(
     shell: Shell1D,
     nodes: np.ndarray,
-    bc0: str = "clamped",
-    bc1: str = "clamped",
+    bc0: str,
+    bc1: str,
     *,
     pressure: float | Callable[[np.ndarray], np.ndarray] = 0.0,
     rings: Sequence[tuple[float, float]] = (),
-    punches: Sequence = (),
-    side: str = "outer",
     pw: int = 5,
     pu: int = 5,
-    tol: float = 1e-9,
-    initial_active: Callable[[np.ndarray], np.ndarray] | None = None,
-    w_band: tuple[float, float, float] | None = None,
-    debug: bool = False,
-) -> AxisymSolution:
-    """Solve the axisymmetric problem on the mesh ``nodes`` (x0 = nodes[0], x1 = nodes[-1]).
-
-    ``pressure`` q (outward, per unit area) is a number or a function of x; ``rings`` are
-    (x, P) outward ring loads per unit circumferential length at mesh nodes; ``punches`` are
-    CylinderPunch / TorusPunch acting on the ``side`` ("outer": ζ = +e, "inner": ζ = −e), with the
-    constraint at every mesh node of their zones. ``initial_active(x) -> bool array`` overrides the
-    NNLS starting guess; ``w_band = (x_lo, x_hi, w)`` prescribes w ≡ w on whole elements (a bilateral
-    band, used by sleeve_free_boundary; its radial reaction is ``band_force``). Raises RuntimeError if the
-    KKT residuals exceed ``tol``.
-    """
-    if bc0 not in SUPPORTS or bc1 not in SUPPORTS:
-        raise ValueError(f"supports must be among {SUPPORTS}")
-    if pw < 3 or pu < 1:
-        raise ValueError("need pw >= 3 and pu >= 1")
-    nodes = np.asarray(nodes, dtype=float)
-    ok_ends = abs(nodes[0] - shell.x0) < 1e-12 and abs(nodes[-1] - shell.x1) < 1e-12
-    if not (ok_ends and np.all(np.diff(nodes) > 1e-9 * (nodes[-1] - nodes[0]))):
-        raise ValueError("nodes must increase from shell.x0 to shell.x1 (no duplicate nodes)")
+) -> Assembly:
+    """The 1D model's stiffness and loads (module docstring); ``solve`` and the friction oracle build on it."""
     a, mu = shell.radius, shell.poisson
     ne, nn = len(nodes) - 1, len(nodes)
     nbu, nbw = pu - 1, pw - 3
@@ -542,6 +534,47 @@ def solve(
             fixed += [i, nn + 2 * i + 1]
     if 0 not in fixed and nn - 1 not in fixed:
         fixed.append(0)  # axial rigid motion: pin u(x0)
+    return Assembly(A, F, dofmap, scale, fixed, nn, nu, ndof)
+
+
+def solve(
+    shell: Shell1D,
+    nodes: np.ndarray,
+    bc0: str = "clamped",
+    bc1: str = "clamped",
+    *,
+    pressure: float | Callable[[np.ndarray], np.ndarray] = 0.0,
+    rings: Sequence[tuple[float, float]] = (),
+    punches: Sequence = (),
+    side: str = "outer",
+    pw: int = 5,
+    pu: int = 5,
+    tol: float = 1e-9,
+    initial_active: Callable[[np.ndarray], np.ndarray] | None = None,
+    w_band: tuple[float, float, float] | None = None,
+    debug: bool = False,
+) -> AxisymSolution:
+    """Solve the axisymmetric problem on the mesh ``nodes`` (x0 = nodes[0], x1 = nodes[-1]).
+
+    ``pressure`` q (outward, per unit area) is a number or a function of x; ``rings`` are
+    (x, P) outward ring loads per unit circumferential length at mesh nodes; ``punches`` are
+    CylinderPunch / TorusPunch acting on the ``side`` ("outer": ζ = +e, "inner": ζ = −e), with the
+    constraint at every mesh node of their zones. ``initial_active(x) -> bool array`` overrides the
+    NNLS starting guess; ``w_band = (x_lo, x_hi, w)`` prescribes w ≡ w on whole elements (a bilateral
+    band, used by sleeve_free_boundary; its radial reaction is ``band_force``). Raises RuntimeError if the
+    KKT residuals exceed ``tol``.
+    """
+    if bc0 not in SUPPORTS or bc1 not in SUPPORTS:
+        raise ValueError(f"supports must be among {SUPPORTS}")
+    if pw < 3 or pu < 1:
+        raise ValueError("need pw >= 3 and pu >= 1")
+    nodes = np.asarray(nodes, dtype=float)
+    ok_ends = abs(nodes[0] - shell.x0) < 1e-12 and abs(nodes[-1] - shell.x1) < 1e-12
+    if not (ok_ends and np.all(np.diff(nodes) > 1e-9 * (nodes[-1] - nodes[0]))):
+        raise ValueError("nodes must increase from shell.x0 to shell.x1 (no duplicate nodes)")
+    asm = assemble(shell, nodes, bc0, bc1, pressure=pressure, rings=rings, pw=pw, pu=pu)
+    A, F, dofmap, scale, fixed = asm.A, asm.F, asm.dofmap, asm.scale, asm.fixed
+    a, nn, nu, ndof = shell.radius, asm.nn, asm.nu, asm.ndof
     g0 = np.zeros(ndof, dtype=np.longdouble)
     band_values = np.zeros(0, int)
     if w_band is not None:  # w ≡ value on [x_lo, x_hi] (a continuous bilateral contact band)

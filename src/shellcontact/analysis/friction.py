@@ -6,20 +6,27 @@ frictionless contact solve: Tresca (a bound g in Pa, acting on the rows in conta
 solved by the semismooth Newton of ``solvers.tresca_newton`` (method "active-set"), the dual with disc
 constraints (method "dual") or the penalty (method "penalty", its ε). The fixed point is needed for the
 case's Tresca too: its bound on the contact set is not a convex problem (docs/theory.md §9a).
-``attach_friction`` adds the friction force to the shell's balance and the per-punch ``friction`` entry of
+``[solver] steps``/``path`` make it a load path whose steps carry the slip (``solve_path``), and a punch's
+``tangential_force`` makes it force-controlled along the surface (``solve_pushed``, an outer iteration on the
+slide). ``attach_friction`` adds the friction force to the shell's balance and the per-punch ``friction`` entry of
 summary.json. Frictionless cases never come here: their results are today's, bit for bit.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from typing import Any
 
 import numpy as np
 
 from ..contact.friction import COULOMB_CONTRACTION, COULOMB_TOL, TangentialOperator, solve_coulomb, tangential_operator
+from ..contact.operator import contact_operator
+from ..contact.punches import place_punches
+from ..errors import InputError, SolverError
 from ..linalg import factorize
 from ..problem.case import Case
+from ..problem.options import SolverOptions
 from ..solvers.qp import ContactSolution
 from ..solvers.tresca import solve_tresca_dual, solve_tresca_penalty
 from ..solvers.tresca_newton import solve_tresca_newton
@@ -35,14 +42,146 @@ def has_friction(case: Case) -> bool:
     return any(p.friction.active or p.slide is not None for p in case.punches)
 
 
-def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float) -> tuple[ContactSolution, dict]:
+def load_stages(case: Case) -> list[tuple[float, float]]:
+    """The load path (``[solver] steps``, ``path``): per step the fractions of the indentations and of the slides."""
+    n = case.solver.steps
+    if case.solver.path == "indent-then-slide":
+        return [(k / n, 0.0) for k in range(1, n + 1)] + [(1.0, k / n) for k in range(1, n + 1)]
+    return [(k / n, k / n) for k in range(1, n + 1)]
+
+
+def _staged(case: Case, indentation: float, slide: float) -> Case:
+    """``case`` with every punch's indentation and slide scaled (a punch in a fixed position stays where it is)."""
+    punches = tuple(dataclasses.replace(p, indentation=p.indentation * indentation,
+                                        slide=None if p.slide is None else p.slide * slide) for p in case.punches)
+    return dataclasses.replace(case, punches=punches)
+
+
+def solve_friction(case: Case, d: Any, setup: Any, opts: SolverOptions) -> tuple[ContactSolution, dict]:
+    """The contact solve with friction (``solve_path``); with a punch's ``tangential_force``, the slide along that
+    force which makes the friction force on the shell equal to it (``solve_pushed``)."""
+    pushed = [p for p in case.punches if p.tangential_force is not None]
+    return solve_pushed(case, pushed[0], d, setup, opts) if pushed else solve_path(case, d, setup, opts)
+
+
+def solve_pushed(case: Case, spec: Any, d: Any, setup: Any, opts: SolverOptions) -> tuple[ContactSolution, dict]:
+    """Force control along the surface: the slide s = α e (e = F/|F|) of punch ``spec`` with e·f(α) = |F|, f the
+    friction force on the shell from that punch. f is linear in α where the punch sticks and saturates at the
+    friction's capacity (μ × the normal force) where it slides: a secant step from the responses at α = 0 and
+    at a probe, then bracketing (×4) and the Illinois method to 1e-8 |F|. A force at or above the capacity (f stops
+    growing before reaching it) is refused: the punch would slide without bound."""
+    force = np.asarray(spec.tangential_force, float)
+    target = float(np.linalg.norm(force))
+    e = force / target
+    runs: list[tuple[float, float]] = []
+
+    def run(alpha: float) -> tuple[float, float, tuple[ContactSolution, dict]]:
+        for nudge in (1.0, 1.0 + 1e-6):  # the disc QP stalled at one slide of the sleeve test (MPGP's face step,
+            # solvers/disc_qp.py): a slide 1e-6 away is solved; a second failure is reported
+            punches = tuple(dataclasses.replace(p, slide=nudge * alpha * e, tangential_force=None) if p is spec else p
+                            for p in case.punches)
+            try:
+                out = solve_path(dataclasses.replace(case, punches=punches), d, setup, opts)
+                break
+            except SolverError:
+                if nudge != 1.0 or alpha == 0.0:
+                    raise
+        f = float(e @ out[1]["operator"].force(out[0].info["T"])[spec.index])
+        runs.append((nudge * alpha, f))
+        return nudge * alpha, f, out
+
+    def done(alpha: float, out: tuple[ContactSolution, dict]) -> tuple[ContactSolution, dict]:
+        out[1]["pushed"] = {"punch": spec.index, "slide": [float(v) for v in alpha * e], "evaluations": len(runs),
+                            "tangential_force": [float(v) for v in force]}
+        return out
+
+    tol = 1e-8 * target
+    _, f0, _ = run(0.0)
+    probe = 1e-3 * case.shell.thickness
+    probe, f1, out = run(probe)
+    if f1 - f0 <= 0.0:
+        raise InputError(f"{spec.where}.tangential_force", "the punch holds no force along it (it does not touch "
+                                                             "the shell, or its friction is 0 where it touches)")
+    lo, rlo, hi, rhi = 0.0, f0 - target, None, 0.0  # the bracket and its residuals f − |F|
+    if f1 > target:
+        hi, rhi = probe, f1 - target
+    else:
+        lo, rlo = probe, f1 - target
+    alpha, side = probe * (target - f0) / (f1 - f0), 0  # the secant: exact where the punch sticks
+    for _ in range(60):
+        alpha, f, out = run(alpha)
+        r = f - target
+        if abs(r) <= tol:
+            return done(alpha, out)
+        if r < 0:
+            # no longer growing (the punch slides at f), or growing only by the normal force's change past any
+            # slide a shell of this length can take
+            if hi is None and (r - rlo <= 1e-6 * target or alpha > case.shell.length):
+                raise InputError(f"{spec.where}.tangential_force",
+                                 f"{target:.6g} N is more than the friction holds: the punch slides without bound at "
+                                 f"{f:.6g} N (μ × the normal force; allowed: below it)")
+            lo, rlo = alpha, r
+            rhi = 0.5 * rhi if side == -1 else rhi  # Illinois: halve the stale end's residual
+            side = -1
+        else:
+            hi, rhi = alpha, r
+            rlo = 0.5 * rlo if side == 1 else rlo
+            side = 1
+        alpha = 4.0 * alpha if hi is None else lo + (hi - lo) * rlo / (rlo - rhi)
+    raise SolverError(f"{spec.where}.tangential_force: the slide that holds {target:.6g} N was not found in "
+                      f"{len(runs)} solves (last {runs[-1][1]:.6g} N at {runs[-1][0]:.4g} m)")
+
+
+def solve_path(case: Case, d: Any, setup: Any, opts: SolverOptions) -> tuple[ContactSolution, dict]:
     """The contact solve with friction on the discretisation ``d`` (``analysis.Discretization``) from the
-    ``analysis.ContactSetup`` ``setup``. Returns the solution of the reduced QP (``info`` holds T, slip, bounds)
-    and the friction record for ``attach_friction``."""
-    op, qp = d.operator, setup.qp
+    ``analysis.ContactSetup`` ``setup``, along the load path of ``[solver] steps`` and ``path``: each step's law
+    acts on the slip since the last step (σ carried per row as a global vector, 0 for a row new to the step).
+    Returns the last step's solution of the reduced QP (``info`` holds T, the total slip, bounds) and the friction
+    record for ``attach_friction``."""
+    stages = load_stages(case)
+    carried: dict[tuple[int, int, int], np.ndarray] = {}
+    steps: list[dict] = []
+    for k, (fi, fs) in enumerate(stages):
+        last = k == len(stages) - 1
+        if last and fi == 1.0 and fs == 1.0:
+            case_k, dk, qp = case, d, setup.qp  # the case itself (one step: exactly the one-shot solve)
+        else:
+            case_k = _staged(case, fi, fs)
+            op = contact_operator(d.space, place_punches(case_k.punches, case.shell, case.units), opts.contact_points)
+            dk = dataclasses.replace(d, operator=op, Br=op.B @ d.reduction.P, punches=op.punches)
+            qp = dk.qp()
+        sol, record, top = _solve_step(case_k, dk, setup, qp, opts, carried)
+        keys = _row_keys(dk.operator)
+        total = top.vectors(sol.info["slip"])  # (3, m) the slip of this step, global
+        carried = {key: carried.get(key, np.zeros(3)) + total[:, i] for i, key in enumerate(keys)}
+        if len(stages) > 1:
+            normal = sol.Lambda * np.linalg.norm(dk.operator.grad, axis=0)
+            punch_of = dk.operator.punch
+            steps.append({"indentation_fraction": fi, "slide_fraction": fs,
+                          "force": [[float(v) for v in f] for f in top.force(sol.info["T"])],
+                          "normal_force": [float(normal[punch_of == j].sum()) for j in range(len(case.punches))],
+                          "iterations": record.iterations, "converged": record.converged})
+    if len(stages) > 1:  # the reported slip is the total since the first step
+        slip_total = np.stack([carried[key] for key in _row_keys(d.operator)], axis=1)
+        sol.info["slip_increment"] = sol.info["slip"]
+        sol.info["slip"] = np.einsum("kdi,di->ik", top.tau, slip_total).ravel()
+    return sol, {"operator": top, "record": record, "method": sol.method, "steps": steps}
+
+
+def _row_keys(op: Any) -> list[tuple[int, int, int]]:
+    """A row's identity across the steps' operators on one mesh: (punch, vertex, facet)."""
+    return list(zip(op.punch.tolist(), op.vertex.tolist(), op.facet.tolist()))
+
+
+def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, carried: dict
+                ) -> tuple[ContactSolution, Any, TangentialOperator]:
+    """One step of the path: Tresca or Coulomb with the slides of ``case`` plus the slip carried from the last
+    step (``carried``: row key → global slip vector), so that the law acts on this step's slip."""
+    op = d.operator
     top = tangential_operator(d.space, op)
     C = (top.C @ d.reduction.P).tocsr()
-    c = top.offsets([p.slide for p in case.punches])
+    before = np.stack([carried.get(key, np.zeros(3)) for key in _row_keys(op)], axis=1) if op.m else np.zeros((3, 0))
+    c = top.offsets([p.slide for p in case.punches]) + np.einsum("kdi,di->ik", top.tau, before).ravel()
     specs = [case.punches[k].friction for k in op.punch]
     mu = np.array([s.coefficient if s.model == "coulomb" else 0.0 for s in specs])
     tresca_g = top.tresca_bounds(op.weights, np.array([s.bound if s.model == "tresca" else 0.0 for s in specs]))
@@ -51,28 +190,28 @@ def solve_friction(case: Case, d: Any, setup: Any, method: str, tolerance: float
     def bounds(Lam: np.ndarray) -> np.ndarray:
         return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
 
-    if method == "active-set":
-        options = {"factorization": setup.factorization if setup.screen is None else None, "tol": tolerance,
-                   "cache": {}}
+    if opts.method == "active-set":
+        options: dict[str, Any] = {"factorization": setup.factorization if setup.screen is None else None,
+                                   "tol": opts.tolerance, "cache": {}}
         tresca, fixed_tol = solve_tresca_newton, COULOMB_TOL
 
         def warm(sol: ContactSolution) -> dict:
             return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
-    elif method == "penalty":
-        options: dict[str, Any] = {"epsilon": setup.eps, "tol": tolerance}
+    elif opts.method == "penalty":
+        options = {"epsilon": setup.eps, "tol": opts.tolerance}
         tresca, fixed_tol = solve_tresca_penalty, PENALTY_FIXED_POINT_TOL
 
         def warm(sol: ContactSolution) -> dict:  # from the stuck state each time: from the last U, whose slips
             return {}  # are far from the new ones, Newton crawled (100 steps on the paper panel)
     else:
         fac = setup.factorization if setup.screen is None else factorize(qp.A)
-        options = {"factorization": fac, "tol": tolerance, "cache": {}}
+        options = {"factorization": fac, "tol": opts.tolerance, "cache": {}}
         tresca, fixed_tol = solve_tresca_dual, COULOMB_TOL
 
         def warm(sol: ContactSolution) -> dict:
             return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, **options)
-    return sol, {"operator": top, "record": record, "method": sol.method, "fallback": sol.info.get("fallback")}
+    return sol, record, top
 
 
 def attach_friction(result: Any, friction: dict) -> None:
@@ -82,13 +221,31 @@ def attach_friction(result: Any, friction: dict) -> None:
     sol = result.contact.solution
     T, slip, g = sol.info["T"], sol.info["slip"], sol.info["bounds"]
     result.solution.extra_forces = result.solution.extra_forces + top.C.T @ T
+    sol.info["tangential"] = top  # the fields and the figure of friction (outputs.fields) read it
     record = friction["record"]
     entries = top.summary(result.contact.operator.weights, T, slip, g, result.contact.Lambda)
     for entry in entries:
         entry["units"] = {"force": "N", "stick_area": "m²", "slip_area": "m²", "max_slip": "m"}
         entry["fixed_point"] = record.summary()
         entry["method"] = friction["method"]
+    for j, entry in enumerate(entries):
+        if friction["steps"]:  # the load path: per step this punch's friction and normal force (N)
+            entry["steps"] = [{**{k: v for k, v in st.items() if k not in ("force", "normal_force")},
+                               "force": st["force"][j], "normal_force": st["normal_force"][j]}
+                              for st in friction["steps"]]
+            entry["units"]["steps"] = {"force": "N", "normal_force": "N"}
+    pushed = friction.get("pushed")
+    if pushed is not None:  # force control along the surface: the slide found and the solves it took
+        entries[pushed["punch"]].update(slide=pushed["slide"], tangential_force=pushed["tangential_force"],
+                                        force_control_solves=pushed["evaluations"])
+        entries[pushed["punch"]]["units"].update(slide="m", tangential_force="N")
     result.contact.friction = entries
+    unconverged = [i + 1 for i, st in enumerate(friction["steps"]) if not st["converged"]]
+    if unconverged and record.converged:
+        text = (f"friction: the fixed point of the friction bounds did not converge in steps {unconverged} of the "
+                "load path; the slip carried from them is not a solution's")
+        result.info.setdefault("warnings", []).append(ResultWarning("friction_contraction", text))
+        print(f"warning: {text}", file=sys.stderr)
     if record.cycle:
         text = ("friction: the contact set alternates between sets that each, with the Tresca bound on its rows, "
                 "close different rows: the Tresca law on the contact set has no solution among them (the bound "

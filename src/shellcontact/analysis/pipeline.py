@@ -199,7 +199,7 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
     setup = prepare_contact(case, d, opts, timer, warm_start=warm_start, max_memory=max_memory, factorizer=factorizer)
     if has_friction(case):  # analysis.friction: the frictionless path below stays as it was
         with timer.stage("solve"):
-            cs, friction = solve_friction(case, d, setup, opts.method, opts.tolerance)
+            cs, friction = solve_friction(case, d, setup, opts)
         result = contact_result(case, d, opts, timer, setup.info, cs, lazy=True)
         attach_friction(result, friction)
         result.check_pending = False

@@ -12,6 +12,10 @@ from .results import SURFACES
 
 #: per-vertex contact arrays, in the order they are written
 CONTACT_FIELDS = ("contact_status", "contact_pressure", "gap", "contact_force", "contact_force_vector")
+#: per-vertex friction arrays (only when a punch has friction or a slide)
+FRICTION_FIELDS = ("friction_state", "friction_traction", "friction_slip")
+#: the values of ``friction_state``
+FRICTION_STATES = {-1: "no contact row", 0: "open", 1: "stick", 2: "slip"}
 
 
 def contact_vertex_arrays(
@@ -117,6 +121,39 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
     return out
 
 
+def friction_vertex_fields(result) -> dict[str, np.ndarray]:
+    """Per-vertex friction arrays of a result with friction (empty dict without): ``friction_state`` (−1 no
+    row, 0 open, 1 stick, 2 slip: the largest over the vertex's rows), ``friction_traction`` (nv, 3; Pa: Σ T_i τ_i
+    / Σ ω_i over the vertex rows, the tangential traction on the shell) and ``friction_slip`` (nv, 3; m: the slip
+    of the shell relative to the punch, σ_i1 τ_i1 + σ_i2 τ_i2, the total of a load path). Vertex rows only, as
+    ``contact_pressure``; on a full cylinder the φ = β copies take their φ = α twins' values."""
+    c = getattr(result, "contact", None)
+    info = getattr(getattr(c, "solution", None), "info", None) or {}
+    top = info.get("tangential")
+    if top is None:
+        return {}
+    op = c.operator
+    nv = int(op.nvertices)
+    r = np.nonzero(np.asarray(op.vertex) >= 0)[0]
+    v = np.asarray(op.vertex)[r]
+    state = np.full(nv, -1, dtype=np.int64)
+    np.maximum.at(state, v, top.states(info["T"], info["bounds"], c.Lambda)[r])
+    force, slip, wsum = np.zeros((nv, 3)), np.zeros((nv, 3)), np.zeros(nv)
+    np.add.at(force, v, top.vectors(info["T"])[:, r].T)
+    np.add.at(slip, v, top.vectors(info["slip"])[:, r].T)
+    np.add.at(wsum, v, np.asarray(op.weights)[r])
+    count = np.bincount(v, minlength=nv)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        traction = np.where(wsum[:, None] > 0, force / np.where(wsum > 0, wsum, 1.0)[:, None], 0.0)
+        slip = np.where(count[:, None] > 0, slip / np.maximum(count, 1)[:, None], 0.0)
+    out = {"friction_state": state, "friction_traction": traction, "friction_slip": slip}
+    twins = getattr(op, "twins", None)
+    if twins is not None:
+        for arr in out.values():
+            arr[twins[0]] = arr[twins[1]]
+    return out
+
+
 # -- fields on the vertices --------------------------------------------------------------------------
 def surface_vertex_fields(sol, x: np.ndarray, phi: np.ndarray, values: dict, yield_stress: float | None = None
                           ) -> dict[str, np.ndarray]:
@@ -160,6 +197,7 @@ def vertex_fields(result) -> dict[str, np.ndarray]:
     out.update({k: np.asarray(val, float) for k, val in sol.resultants(x, phi, values=d).items()})
     out.update(surface_vertex_fields(sol, x, phi, d, result.case.yield_stress))
     out.update(contact_vertex_fields(result))
+    out.update(friction_vertex_fields(result))
     return out
 
 

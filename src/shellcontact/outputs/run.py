@@ -30,6 +30,7 @@ RUN_FILES = (
     "sections.png",
     "pressure.png",
     "pressure_profiles.png",
+    "friction.png",
     "report.html",
 )
 

@@ -37,7 +37,7 @@ from ..shell.mesh import PATTERNS, MeshSpec
 from ..shell.supports import SUPPORTS, Supports
 from ..solvers.methods import METHODS
 from ..units import SYSTEMS
-from .options import SolverOptions
+from .options import PATHS, SolverOptions
 
 _NUMBER_OR_FUNCTION = "string `\"module:function\"`: a function t(x, phi) (NumPy, φ in radians)"
 #: the allowed column of every modulus (material.check_stiffness_range)
@@ -184,6 +184,14 @@ SOLVER = Table("solver", (
         "complement (every method, PARDISO): `\"auto\"` from 40 000 unknowns on, `true` always, `false` never "
         "([solvers.md](solvers.md#large-problems-substructured-factorisation-and-screening))",
         choices=("auto", True, False), default=SolverOptions.substructure),
+    Key("steps", "integer", "friction is path dependent: the punches' indentations and slides are applied in this "
+        "many equal increments, each step's slip law acting on the slip since the last step (a punch in a fixed "
+        "position is there from the first step); only with friction "
+        "([theory.md](theory.md#9a-friction-modelmd-11-issue-26))", lo=1, hi=1000, default=SolverOptions.steps),
+    Key("path", "choice", "the load path of `steps`: indentation and slide together (`\"proportional\"`), or "
+        "`steps` increments of the indentation with no slide, then `steps` increments of the slide "
+        "(`\"indent-then-slide\"`: a slide after the punch is pressed in, as an engineer loads a test)",
+        choices=PATHS, default=SolverOptions.path),
 ))
 
 UNITS = Table("units", (
@@ -405,6 +413,17 @@ def _case_from_dict(data: dict, source: str | Path | None, consent: CodeConsent 
         _check_inside(shell, f"probes.{i}", *pr)
     solver = parse_solver(data.get("solver", {}))
     punches = parse_punches(data.get("punch", []))
+    if (solver.steps > 1 or solver.path != "proportional") and not any(
+            p.friction.active or p.slide is not None for p in punches):
+        raise InputError("solver.steps", "a load path (steps > 1, path) is used only with friction or a slide "
+                                         "(punch.<i>.friction, punch.<i>.slide): a frictionless solve is path "
+                                         "independent")
+    pushed = [p for p in punches if p.tangential_force is not None]
+    if len(pushed) > 1:
+        raise InputError(f"{pushed[1].where}.tangential_force", "is allowed on one punch only (the others may slide)")
+    if pushed and solver.steps > 1:
+        raise InputError("solver.steps", "a load path (steps > 1) with a tangential force is not supported: give "
+                                         "the punch a slide, or steps = 1")
     loads = parse_loads(data.get("loads", {}))
     loads.check_functions(shell)
     for i, pt in enumerate(loads.points):

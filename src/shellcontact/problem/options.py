@@ -7,6 +7,9 @@ from dataclasses import dataclass, replace
 from ..errors import InputError
 from ..solvers.methods import DEFAULT_METHOD, METHODS
 
+#: the friction load paths of ``[solver] path``
+PATHS = ("proportional", "indent-then-slide")
+
 
 @dataclass(frozen=True)
 class SolverOptions:
@@ -25,6 +28,8 @@ class SolverOptions:
     extended_precision: bool = False
     out_of_core: bool = False  # the mumps backend's factors on disk (ICNTL(22))
     substructure: str | bool = "auto"  # "auto": from solvers.substructure.MIN_UNKNOWNS unknowns on
+    steps: int = 1  # the friction load path's increments (analysis.friction)
+    path: str = "proportional"  # or "indent-then-slide"
 
     def with_method(self, method: str | None) -> SolverOptions:
         """These options with another contact method (the ``method=`` argument of ``solve``)."""

@@ -38,6 +38,10 @@ FRICTION_KEYS = (
         allowed=f"0 ≤ μ ≤ {MU_MAX:g}, or a table", table=FRICTION),  # its table's keys: ``case.key_kind``
     Key("slide", "vector", "a rigid translation of the punch tangent to its surface (friction drags the shell); "
         "its component along `direction` is refused", unit="length", default=None, default_doc="–"),
+    Key("tangential_force", "vector", "the force-controlled counterpart of `slide`: the punch is pushed with this "
+        "force (global frame) and slides along it until the friction force on the shell equals it; its "
+        "component along `direction` is refused, and a force the friction cannot hold (the punch would slide "
+        "without bound) is refused with the largest it holds", unit="force", default=None, default_doc="–"),
 )
 
 
@@ -72,12 +76,18 @@ def parse_friction(raw: Any, where: str) -> FrictionSpec:
     return FrictionSpec("coulomb", float(mu), 0.0)
 
 
-def check_slide(slide: np.ndarray | None, direction: np.ndarray | None, where: str, rtol: float = 1e-9) -> None:
-    """Refuse a slide with a component along the punch's direction of travel (``where`` = ``punch.<i>``)."""
-    if slide is None or direction is None:
+def check_slide(slide: np.ndarray | None, direction: np.ndarray | None, where: str, rtol: float = 1e-9,
+                key: str = "slide", unit: str = "m") -> None:
+    """Refuse a slide (or a tangential force, ``key``) with a component along the punch's direction of travel
+    (``where`` = ``punch.<i>``)."""
+    if slide is None:
+        return
+    if key == "tangential_force" and not np.any(slide):
+        raise InputError(f"{where}.{key}", "must be a nonzero vector (leave it out for none)")
+    if direction is None:
         return
     along = float(np.dot(slide, direction))
     if abs(along) > rtol * float(np.linalg.norm(slide)):
-        raise InputError(f"{where}.slide", f"must be tangent: its component along the punch direction "
-                                           f"{np.round(direction, 6).tolist()} is {along:.4g} m (allowed: 0; the "
-                                           "indentation moves the punch along its direction)")
+        raise InputError(f"{where}.{key}", f"must be tangent: its component along the punch direction "
+                                           f"{np.round(direction, 6).tolist()} is {along:.4g} {unit} (allowed: 0; "
+                                           "the indentation or the force moves the punch along its direction)")

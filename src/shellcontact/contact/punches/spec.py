@@ -73,6 +73,7 @@ class PunchSpec:
     extent: Extent | None = None  # None: the shape is unbounded
     friction: FrictionSpec = FrictionSpec()  # frictionless by default
     slide: np.ndarray | None = None  # m, a tangential rigid translation (friction drags the shell)
+    tangential_force: np.ndarray | None = None  # N, the force-controlled counterpart of ``slide``
 
     @property
     def where(self) -> str:
@@ -106,6 +107,13 @@ def parse_punch(raw: Any, index: int = 0) -> PunchSpec:
         direction = unit(v["direction"], f"{where}.direction")
     slide = None if v["slide"] is None else np.asarray(v["slide"], float)
     check_slide(slide, direction, where)
+    tangential = None if v["tangential_force"] is None else np.asarray(v["tangential_force"], float)
+    check_slide(tangential, direction, where, key="tangential_force", unit="N")
+    if tangential is not None and slide is not None:
+        raise InputError(f"{where}.tangential_force", "give either 'slide' or 'tangential_force', not both")
+    if tangential is not None and not friction.active:
+        raise InputError(f"{where}.tangential_force", "needs friction (punch.<i>.friction): without it no force "
+                                                      "along the surface can be held")
     zone = v["zone"] or {"x": None, "phi": None, "gap": None}
     if zone["gap"] is not None and (zone["x"] is not None or zone["phi"] is not None):
         raise InputError(f"{where}.zone.gap", "give either the ranges x/phi or an automatic-zone gap, not both")
@@ -127,6 +135,7 @@ def parse_punch(raw: Any, index: int = 0) -> PunchSpec:
         extent=parse_extent(v["extent"], f"{where}.extent"),
         friction=friction,
         slide=slide,
+        tangential_force=tangential,
     )
 
 

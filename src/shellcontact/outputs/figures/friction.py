@@ -1,0 +1,74 @@
+"""``friction.png``: per punch with friction, the stick and slip zones over (x, φ°) and the tangential traction on
+the shell as arrows (drawn only when a punch has friction or a slide)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ..fields import friction_vertex_fields
+from .common import _finish, _map_axes, _q, _vertex_map
+
+#: the colours of the friction states (fields.FRICTION_STATES)
+STATE_STYLE = {0: ("open", "0.75", 6), 1: ("stick", "tab:blue", 16), 2: ("slip", "tab:red", 16)}
+
+
+def plot_friction(result, path: str | Path | None = None) -> Figure | None:
+    """Stick (blue) and slip (red) vertices, open candidate vertices (grey) and the tangential traction on the shell
+    (arrows, their key in Pa) of every punch with friction, one panel each; the title gives the friction force
+    (N) and the stick and slip areas. None without friction."""
+    fields = friction_vertex_fields(result)
+    if not fields:
+        return None
+    sol = result.solution
+    a = sol.shell.radius
+    tri = _vertex_map(result)
+    x, phi = tri.x, tri.y
+    state, traction = fields["friction_state"], fields["friction_traction"]
+    e2 = np.stack([np.zeros_like(phi), -np.sin(np.radians(phi)), np.cos(np.radians(phi))])
+    t1, t2 = traction[:, 0], np.sum(traction.T * e2, axis=0)  # axial and circumferential components (Pa)
+    entries = getattr(result.contact, "friction", None) or []
+    op = result.contact.operator
+    punches = [k for k, p in enumerate(result.case.punches) if p.friction.active or p.slide is not None
+               or getattr(p, "tangential_force", None) is not None]
+    n = len(punches)
+    fig = Figure(figsize=(7.6 if n == 1 else 6.2 * n, 5.0), layout="constrained")
+    for j, k in enumerate(punches):
+        ax = fig.add_subplot(1, n, j + 1)
+        mine = np.zeros(x.size, bool)
+        rows = (np.asarray(op.punch) == k) & (np.asarray(op.vertex) >= 0)
+        mine[np.asarray(op.vertex)[rows]] = True
+        for s, (label, colour, size) in STATE_STYLE.items():
+            at = mine & (state == s)
+            if at.any():
+                ax.scatter(x[at], phi[at], s=size, c=colour, label=f"{label} ({int(at.sum())} vertices)",
+                           edgecolors="none", zorder=2)
+        moving = mine & (state > 0)
+        mag = np.hypot(t1, t2)
+        if moving.any() and mag[moving].max() > 0:
+            # arrows true to direction on the surface: a degree of φ is a·π/180 of arc
+            deg = 180.0 / (math.pi * a)
+            ref = float(mag[moving].max())
+            u, v = t1[moving], t2[moving] * deg  # the direction on the map; the length the traction's magnitude
+            norm = np.maximum(np.hypot(u, v), 1e-300) / mag[moving]
+            q = ax.quiver(x[moving], phi[moving], u / norm, v / norm, angles="xy", zorder=3, color="k", width=0.003)
+            ax.quiverkey(q, 0.16, 0.06, ref, f"tangential traction {_q(result, ref, 'pressure')}", labelpos="E",
+                         coordinates="axes", fontproperties={"size": 8})
+        if mine.any():
+            dx = max(float(np.ptp(x[mine])), 1e-12)
+            dp = max(float(np.ptp(phi[mine])), 1e-9)
+            ax.set_xlim(x[mine].min() - 0.08 * dx, x[mine].max() + 0.08 * dx)
+            ax.set_ylim(phi[mine].min() - 0.08 * dp, phi[mine].max() + 0.08 * dp)
+        ax.legend(loc="lower right", fontsize=8)
+        title = f"punch {k}: friction on the shell"
+        if k < len(entries):
+            f = entries[k]
+            force = ", ".join(_q(result, v, "force") for v in f["force"])
+            title += (f"\nforce ({force}); stick {_q(result, f['stick_area'], 'area')}, "
+                      f"slip {_q(result, f['slip_area'], 'area')}")
+        ax.set_title(title, fontsize=9)
+        _map_axes(ax, result)
+    return _finish(fig, path)
