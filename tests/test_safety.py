@@ -218,9 +218,9 @@ def test_the_embedded_cluster_listens_on_loopback_only() -> None:
 
     engine = Dask(1, None)
     try:
-        # not MPI's singleton daemon (orted), which an earlier in-process mumps test in this worker may have
-        # started (this process's own MPI transport is kept off TCP: linalg.mpi.SINGLETON_MCA)
-        procs = [psutil.Process(), *(c for c in psutil.Process().children(recursive=True) if c.name() != "orted")]
+        # every child too: an earlier in-process mumps test in this worker initialised MPI as a singleton, which
+        # starts no helper daemon (orted) and no TCP transport (linalg.mpi.SINGLETON_MCA)
+        procs = [psutil.Process(), *psutil.Process().children(recursive=True)]
         listening = {(c.laddr.ip, c.laddr.port) for p in procs for c in p.net_connections(kind="inet")
                      if c.status == psutil.CONN_LISTEN}
         dashboard_port = int(engine.dashboard.split("//")[1].split("/")[0].split(":")[1])

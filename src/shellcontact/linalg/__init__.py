@@ -24,13 +24,14 @@ and the docs' table follow the registry.
 A matrix that is singular or not positive definite raises SolverError whatever the backend.
 """
 
-from .bordered import SchurComplement
+from .bordered import DenseSchur, SchurComplement
 from .protocol import Factorization
 from .registry import BACKENDS, Backend, available_backends, default_backend, factorize, register, resolve_backend
 
 __all__ = [
     "BACKENDS",
     "Backend",
+    "DenseSchur",
     "Factorization",
     "SchurComplement",
     "available_backends",

@@ -19,6 +19,10 @@ once for ``factorize(A, border=B)``. Then
 ρ = 1 / mean(‖B_i‖²) in the equilibrated variables (``border_weight``); the recovered S agreed with
 blocked solves to ≈1e-10 relative for ρ·S_ii from 1e-4 to 1e4 on the demo case (the round-off of
 those solves).
+
+A backend whose Schur option leaves the border rows uneliminated (MUMPS, ICNTL(19)) needs no weight:
+the Schur complement of [[A, Bᵀ], [B, 0]] on its last m rows is −S itself, and the factors of A alone
+serve the solves (``DenseSchur``, ``Factorization._factor_schur``).
 """
 
 from __future__ import annotations
@@ -85,6 +89,12 @@ class SchurComplement(SchurRows):
     _cache: dict = field(default_factory=dict, init=False, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, init=False, repr=False)
 
+    def full(self) -> np.ndarray:
+        """The whole S (m × m) = T⁻¹ − ρ⁻¹I."""
+        S = sla.cho_solve(self.chol, np.eye(self.m), check_finite=False)
+        S[np.diag_indices_from(S)] -= 1.0 / self.rho
+        return S
+
     def columns(self, cols: np.ndarray) -> np.ndarray:
         """S[:, cols] = T⁻¹[:, cols] − ρ⁻¹ I[:, cols]  (m × len(cols)), each column solved for once."""
         cols = np.asarray(cols, dtype=np.int64)
@@ -106,6 +116,23 @@ class SchurComplement(SchurRows):
         X = sla.cho_solve(self.chol, E, check_finite=False)
         X[cols, np.arange(cols.size)] -= 1.0 / self.rho
         return X
+
+
+@dataclass
+class DenseSchur(SchurRows):
+    """S = B A⁻¹ Bᵀ for the rows ``B`` held whole (a backend's Schur option computed it directly), with the
+    fields ``solvers.schur.Workspace`` reads of a ``SchurComplement``."""
+
+    S: np.ndarray
+    seconds: float = 0.0
+    extra: tuple[sp.csr_matrix, np.ndarray] | None = field(default=None, repr=False)
+    refine_converged: bool = True
+
+    def full(self) -> np.ndarray:
+        return self.S
+
+    def columns(self, cols: np.ndarray) -> np.ndarray:
+        return self.S[:, np.asarray(cols, dtype=np.int64)]
 
 
 def border_weight(Bs: sp.csr_matrix, flexibility: float | None = None) -> float:

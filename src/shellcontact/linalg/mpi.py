@@ -31,9 +31,12 @@ _POLL_SECONDS = 0.0005
 
 
 #: a process that no launcher started (the mumps backend in a plain run) is MPI's only rank: it needs no TCP
-#: transport, so none listens (Open MPI's TCP BTL would listen on every interface; the user's own settings win)
-SINGLETON_MCA = {"OMPI_MCA_btl": "self,vader", "OMPI_MCA_oob_tcp_if_include": "lo",
-                 "OMPI_MCA_oob_tcp_disable_ipv6_family": "1"}
+#: transport and no helper daemon, so nothing listens (the user's own settings win). Open MPI 4 would otherwise
+#: fork ``orted``, whose PMIx server listens on every interface (0.0.0.0 and ::, whatever oob_tcp_if_include or
+#: PMIx's ptl_tcp/ptl_base if_include say: measured with Open MPI 4.1.4, PMIx 4.2.2); ess_singleton_isolated
+#: starts none (the process then cannot spawn others, which nothing here does), and the TCP BTL stays off
+SINGLETON_MCA = {"OMPI_MCA_ess_singleton_isolated": "1", "OMPI_MCA_btl": "self,vader",
+                 "OMPI_MCA_oob_tcp_if_include": "lo", "OMPI_MCA_oob_tcp_disable_ipv6_family": "1"}
 
 
 def comm():

@@ -6,6 +6,13 @@ ICNTL(21) = 0). Under ``mpiexec -n N`` MUMPS distributes the factors and the wor
 (``mpi``); in one process it runs on one rank. The symbolic analysis is kept for ``refactor`` when the
 pattern is unchanged (JOB 2 alone).
 
+With a border (``factorize(A, border=B)``, ``supports_schur``) MUMPS's own Schur option gives S = B A⁻¹ Bᵀ:
+the matrix [[A, Bᵀ], [B, 0]] (equilibrated) with its last m variables declared the Schur variables
+(ICNTL(19) = 1, SIZE_SCHUR, LISTVAR_SCHUR: their rows are not eliminated) is factorised once; the Schur
+complement on them, 0 − B A⁻¹ Bᵀ = −S, comes back centralised on rank 0 (its lower triangle by rows in the
+user's ``schur`` array), and the solves use the factors of A alone (ICNTL(26) = 0: MUMPS solves the
+internal problem A x = b and sets the Schur variables to 0).
+
 ``configure(out_of_core=True)`` (``[solver] out_of_core``) writes the factors to disk (ICNTL(22) = 1) in
 the directory of the environment variable MUMPS_OOC_TMPDIR on each rank (MUMPS's default: /tmp).
 """
@@ -59,28 +66,66 @@ def _count(value: int) -> int:
     return value if value >= 0 else -value * 1_000_000
 
 
+def _negated_symmetric(L: np.ndarray, rows: int = 512) -> np.ndarray:
+    """−(the symmetric matrix whose lower triangle L holds), in L's memory, a block of rows at a time (no
+    m × m temporary). MUMPS leaves work values above the diagonal: they are overwritten."""
+    for r0 in range(0, L.shape[0], rows):
+        r1 = min(L.shape[0], r0 + rows)
+        L[r0:r1] = np.tril(L[r0:r1], r0) + np.triu(L[:, r0:r1].T, r0 + 1)  # reads only below the diagonal
+    return np.negative(L, out=L)
+
+
 class Mumps(Factorization):
     """MUMPS on the upper triangle of the equilibrated matrix, all ranks of MPI's world taking part."""
 
     backend = "mumps"
+    supports_schur = True
     upper_triangle = True
 
     def _factor(self, As: sp.csr_matrix) -> None:
         from . import mpi
 
+        self._n = As.shape[0]
         self._instance = mpi.HostInstance(dict(_SETTINGS))
         self._set_matrix(checked_upper(As))
         self._run(4)  # analysis and factorisation
 
-    def _set_matrix(self, U: sp.csr_matrix) -> None:
+    def _factor_schur(self, As: sp.csr_matrix, Bs: sp.csr_matrix) -> np.ndarray:
+        """S = Bs As⁻¹ Bsᵀ by MUMPS's Schur option on [[As, Bsᵀ], [Bs, 0]] (module docstring)."""
+        from . import mpi
+
+        n, m = As.shape[0], Bs.shape[0]
+        self._n = n
+        self._instance = mpi.HostInstance({**_SETTINGS, 19: 1})
+        U, C = checked_upper(As).tocoo(), Bs.tocoo()  # Bsᵀ's entries (dof j, border n + i) lie above the diagonal
+        self._set_coo(n + m, np.concatenate([U.row, C.col]), np.concatenate([U.col, C.row + n]),
+                      np.concatenate([U.data, C.data]))
+        self._pattern = None  # a refactor drops the border (``Factorization.refactor``)
         s = self._instance.mumps.s
+        self._schur_vars = np.arange(n + 1, n + m + 1, dtype=np.int32)
+        lower = np.zeros((m, m))  # MUMPS fills the lower triangle (C order) of −S on rank 0
+        s.size_schur, s.schur_lld = m, m
+        s.listvar_schur = self._schur_vars.ctypes.data_as(_P_INT)
+        s.schur = lower.ctypes.data_as(_P_REAL)
+        try:
+            self._run(4)
+        finally:
+            s.schur = None
+        return _negated_symmetric(lower)
+
+    def _set_matrix(self, U: sp.csr_matrix) -> None:
         C = U.tocoo()
-        # MUMPS keeps pointers to these arrays: they live as long as the factorisation
-        self._irn = (C.row + 1).astype(np.int32)
-        self._jcn = (C.col + 1).astype(np.int32)
-        self._a = np.ascontiguousarray(C.data, dtype=np.float64)
+        self._set_coo(U.shape[0], C.row, C.col, C.data)
         self._pattern = (U.indptr.copy(), U.indices.copy())
-        s.n, s.nnz = U.shape[0], self._a.size
+
+    def _set_coo(self, order: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray) -> None:
+        """The upper triangle in coordinates (zero-based ``rows``, ``cols``) of a matrix of ``order``."""
+        s = self._instance.mumps.s
+        # MUMPS keeps pointers to these arrays: they live as long as the factorisation
+        self._irn = (rows + 1).astype(np.int32)
+        self._jcn = (cols + 1).astype(np.int32)
+        self._a = np.ascontiguousarray(values, dtype=np.float64)
+        s.n, s.nnz = order, self._a.size
         s.irn = self._irn.ctypes.data_as(_P_INT)
         s.jcn = self._jcn.ctypes.data_as(_P_INT)
         s.a = self._a.ctypes.data_as(_P_REAL)
@@ -93,8 +138,12 @@ class Mumps(Factorization):
             raise SolverError(f"mumps: {negative} negative pivot(s) (INFOG(12)): not positive definite")
 
     def _solve_factors(self, b: np.ndarray) -> np.ndarray:
-        x = np.array(b, dtype=np.float64, order="F", copy=True)  # MUMPS overwrites the right-hand sides
         s = self._instance.mumps.s
+        if s.n == self._n:
+            x = np.array(b, dtype=np.float64, order="F", copy=True)  # MUMPS overwrites the right-hand sides
+        else:  # with the Schur variables: zero there (MUMPS solves A x = b alone and returns 0 there)
+            x = np.zeros((s.n,) + np.shape(b)[1:], order="F")
+            x[: self._n] = b
         s.nrhs = 1 if x.ndim == 1 else x.shape[1]
         s.lrhs = x.shape[0]
         s.rhs = x.ctypes.data_as(_P_REAL)
@@ -112,9 +161,13 @@ class Mumps(Factorization):
         finally:
             self._instance.mumps.icntl(20, 0)
             s.rhs = s.rhs_sparse = s.irhs_sparse = s.irhs_ptr = None
-        return x
+        return x[: self._n]
 
     def _refactor(self, As: sp.csr_matrix) -> None:
+        if self._pattern is None:  # bordered: factorise A alone from now on
+            self._instance.free()
+            self._factor(As)
+            return
         U = checked_upper(As)
         indptr, indices = self._pattern
         if np.array_equal(U.indptr, indptr) and np.array_equal(U.indices, indices):
@@ -131,6 +184,7 @@ class Mumps(Factorization):
                 "ranks": len(inst.factor_megabytes),
                 "factor_megabytes_per_rank": list(inst.factor_megabytes),  # INFO(16) of each rank
                 "out_of_core": bool(inst.mumps.s.icntl[21]),
+                **({"schur_rows": inst.mumps.s.n - self._n} if inst.mumps.s.n != self._n else {}),
                 "ordering": int(g[6])}  # INFOG(7): the ordering MUMPS chose
 
     def free(self) -> None:

@@ -1,6 +1,6 @@
 """MKL PARDISO, through the ``pypardiso`` package's MKL binding, called directly with explicit phases
 (11 analysis, 22 numeric, 33 solve): real SPD (mtype 2) on the upper triangle in CSR with zero-based
-indices. The one backend with ``supports_schur``: the numeric phase returns the dense Schur
+indices. With ``supports_schur``: the numeric phase returns the dense Schur
 complement of marked rows (iparm[35] = 2), used for ``factorize(A, border=B)`` (``bordered``).
 """
 

@@ -3,7 +3,8 @@
 A backend subclasses ``Factorization`` and implements the factor phases on the equilibrated matrix
 S A S (S = diag(A)^{-1/2}): ``_factor``, ``_solve_factors``, ``_refactor``, ``_factor_info``,
 ``free``; a backend that computes the Schur complement of a bordered matrix in its numeric phase
-also sets ``supports_schur = True`` and implements ``_factor_bordered`` (``bordered``). Everything
+also sets ``supports_schur = True`` and implements ``_factor_bordered`` (the weighted border of
+``bordered``) or ``_factor_schur`` (S itself, from the factors of A). Everything
 callers use is defined here: ``solve``, ``solve_many``, ``schur``, ``refactor``, ``info``, ``free``.
 """
 
@@ -17,7 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import InputError, SolverError
-from .bordered import SchurComplement, border_weight
+from .bordered import DenseSchur, SchurComplement, border_weight
 from .sparse import equilibrate, norm_inf
 
 
@@ -52,7 +53,7 @@ class Factorization(ABC):
         self.residual = float("nan")
         self.backward_error = float("nan")
         self.refinements = 0
-        self.schur: SchurComplement | None = None
+        self.schur: SchurComplement | DenseSchur | None = None
         self._norm: tuple = (None, 0.0)
         self._along: tuple = (None, None)  # (A, A in extended precision)
         if border is None:
@@ -60,13 +61,18 @@ class Factorization(ABC):
             self._factor(As)
         else:
             Bs = (border @ sp.diags(scale)).tocsr()
-            rho = border_weight(Bs, border_flexibility)
             t0 = time.perf_counter()
-            T = self._factor_bordered(As, Bs, rho)
-            t1 = time.perf_counter()
-            self.schur = SchurComplement.from_bordered(border, rho, T)
-            if self.schur is not None:
-                self.schur.seconds = time.perf_counter() - t1
+            S = self._factor_schur(As, Bs)
+            if S is not None:  # Bs As⁻¹ Bsᵀ = B A⁻¹ Bᵀ: the scaling cancels
+                self.schur = DenseSchur(B=border, S=S)
+            else:
+                rho = border_weight(Bs, border_flexibility)
+                t0 = time.perf_counter()
+                T = self._factor_bordered(As, Bs, rho)
+                t1 = time.perf_counter()
+                self.schur = SchurComplement.from_bordered(border, rho, T)
+                if self.schur is not None:
+                    self.schur.seconds = time.perf_counter() - t1
         self.seconds = time.perf_counter() - t0
 
     # -- what a backend implements ------------------------------------------------------------------
@@ -78,6 +84,11 @@ class Factorization(ABC):
         """Factorise M (``bordered``) for the equilibrated ``As`` and ``Bs``; returns the dense Schur
         complement T of M's last m rows. Solves then use M's factors (A⁻¹b = (M⁻¹[b; 0])[:n])."""
         raise InputError("border", f"the {self.backend} backend does not compute Schur complements")
+
+    def _factor_schur(self, As: sp.csr_matrix, Bs: sp.csr_matrix) -> np.ndarray | None:
+        """Factorise ``As`` and return S = Bs As⁻¹ Bsᵀ (m × m, dense) from the backend's own Schur option; None
+        (the default): the backend borders A instead (``_factor_bordered``)."""
+        return None
 
     @abstractmethod
     def _solve_factors(self, b: np.ndarray) -> np.ndarray:

@@ -36,8 +36,8 @@ class Backend:
 
 BACKENDS: dict[str, Backend] = {b.name: b for b in sorted((
     Backend("pardiso", pardiso.Pardiso, pardiso.available,
-            "MKL PARDISO (package pypardiso): supernodal Cholesky; the one backend that computes Schur "
-            "complements (the substructured path)", 0),
+            "MKL PARDISO (package pypardiso): supernodal Cholesky; computes Schur complements (the substructured "
+            "path, bordered with a weight)", 0),
     Backend("cholmod", cholmod.Cholmod, cholmod.available,
             "CHOLMOD supernodal Cholesky (package scikit-sparse, extra shellcontact[cholmod]; needs the "
             "SuiteSparse headers)", 1),
@@ -45,7 +45,8 @@ BACKENDS: dict[str, Backend] = {b.name: b for b in sorted((
             "SciPy's SuperLU with a symmetric ordering and diagonal pivots; always installed, the slowest", 2),
     Backend("mumps", mumps.Mumps, mumps.available,
             "MUMPS over MPI (libmumps-dev, extra shellcontact[mpi]): one model's factors spread over the ranks of "
-            "`mpiexec -n N shellcontact run`; never chosen by \"auto\"", 9, mumps.describe),
+            "`mpiexec -n N shellcontact run`; Schur complements by MUMPS's ICNTL(19); never chosen by \"auto\"", 9,
+            mumps.describe),
 ), key=lambda b: b.priority)}
 
 

@@ -44,7 +44,8 @@ ASSEMBLY_BYTES = 21e3
 #: bytes per stored nonzero of a CSR matrix (value + column index)
 CSR_BYTES = 12.0
 #: factor nonzeros nnz(L) ≈ c · n · log₂ n by backend (SuperLU: L + U), fitted in benchmarks/memory.py
-FILL = {"pardiso": 13.0, "cholmod": 10.0, "superlu": 20.0}
+#: (MUMPS with PORD, its INFOG(29): 74.9 M at 276k unknowns, 369.4 M at 1.11M: c = 15.0, 16.6)
+FILL = {"pardiso": 13.0, "cholmod": 10.0, "superlu": 20.0, "mumps": 16.6}
 #: bytes per factor nonzero: the value and the backend's own structures (PARDISO 2.84 GB of factor
 #: memory for 251 M nonzeros at 984k unknowns: 11.3)
 FACTOR_BYTES = 11.5
@@ -211,7 +212,7 @@ def _zone_rows(punch, shell, spec: MeshSpec, xs, ss, levels: int, points: str) -
 
 
 def _bytes(case, nv, ne, nf, dofs, nnz, rows, method: str, backend: str) -> SizeEstimate:
-    from ..linalg import resolve_backend
+    from ..linalg import BACKENDS, resolve_backend
     from ..solvers.methods import METHODS
     from ..solvers.substructure import MAX_ROWS, MIN_UNKNOWNS
 
@@ -221,7 +222,7 @@ def _bytes(case, nv, ne, nf, dofs, nnz, rows, method: str, backend: str) -> Size
     factor_nnz = fill * n * math.log2(max(n, 2.0)) if math.isfinite(n) else math.inf
     opts = case.solver
     exact = METHODS[method].exact if method in METHODS else True
-    substructured = bool(rows) and exact and opts.substructure is not False and name == "pardiso" and (
+    substructured = bool(rows) and exact and opts.substructure is not False and BACKENDS[name].supports_schur and (
         opts.substructure is True or n >= MIN_UNKNOWNS)
     schur_rows = min(rows, MAX_ROWS) if substructured else 0.0
     matrix = CSR_BYTES * nnz

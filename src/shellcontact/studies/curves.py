@@ -56,7 +56,6 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..analysis.discretization import Discretization, Timer, discretize
@@ -245,8 +244,7 @@ class Cartesian:
         if fac.schur is None:
             return
         sch = fac.schur
-        X = sla.cho_solve(sch.chol, np.eye(3 * M), check_finite=False)
-        X[np.diag_indices_from(X)] -= 1.0 / sch.rho
+        X = sch.full()
         self._X, self._fac = 0.5 * (X + X.T), fac
 
     def schur(self, qp: ContactQP, border: sp.csr_matrix, op: ContactOperator, rows: np.ndarray,
