@@ -245,12 +245,12 @@ class ShellSpace:
         U = np.zeros(self.ndofs)
         mid = 0.5 * (m.p[:, m.facets[0]] + m.p[:, m.facets[1]])
         pts = np.hstack([m.p, mid])  # P2 nodes: vertices then facet midpoints
-        f = fields(pts[0], pts[1])
+        f = fields(pts[0], pts[1])  # once: a coarse solution's evaluation is most of a nested start's prolongation
         U[self.u_slice] = f["u"]
         U[self.v_slice] = f["v"]
-        fv = fields(m.p[0], m.p[1])
-        wv = np.stack([fv[k] for k in W_KINDS], axis=1).ravel()
-        fm = fields(mid[0], mid[1])
+        nv = m.p.shape[1]
+        wv = np.stack([f[k][:nv] for k in W_KINDS], axis=1).ravel()
+        fm = {k: f[k][nv:] for k in ("w_x", "w_s")}
         nrm = self.facet_normals()
         wn = nrm[0] * fm["w_x"] + nrm[1] * fm["w_s"]
         U[self.w_slice] = np.concatenate([wv, wn])
