@@ -173,6 +173,9 @@ def worker(n: int, refine: int, method: str, nested: bool, backend: str = "auto"
         "force": float(c0_["force_magnitude"]), "total_normal_force": float(c0_["total_normal_force"]),
         "kkt_scaled": summary.get("kkt_scaled"), "kkt": summary.get("kkt"), "written_bytes": sizes,
         "warnings": summary.get("warnings", []),
+        # the contact solve's parts (wall s), its border (the screened rows per round) and Schur columns
+        "solver_timings": {k: float(v) for k, v in res.info.get("solver_timings", {}).items()},
+        "screening": cs.info.get("screening"),
     }
 
 

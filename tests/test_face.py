@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from shellcontact.solvers.face import independent_cholesky, solve_face
+from shellcontact.solvers.face import _bordered, independent_cholesky, solve_face
 from shellcontact.solvers.qp import ContactQP
 from shellcontact.solvers.schur import Workspace
 
@@ -83,3 +83,20 @@ def test_the_workspace_says_a_face_of_one_row_does_not_determine_two_motions() -
     assert x[0] == pytest.approx(0.0, abs=1e-12) and (qp.D[1] @ delta) == pytest.approx(-ws.c0[1], rel=1e-12)
     x, delta, singular = ws.face_solve(np.array([0, 1]), -ws.c0[[0, 1]], -qp.P)
     assert not singular and delta[0] == pytest.approx(-1e-3, rel=1e-12)
+
+
+def test_the_bordered_face_system_is_solved_when_regular_and_refused_when_singular() -> None:
+    """A face with a row the clamp holds (S_ii = 0: a zero row and column of S_II) is singular, but [[S, D], [Dᵀ, 0]]
+    is regular when D sees that row: ``_bordered`` (one LU, its condition estimate as the test) gives numpy's dense
+    KKT solution; when no column of D sees the row, the bordered matrix is singular too and it returns None."""
+    rng = np.random.default_rng(3)
+    B = np.vstack([rng.standard_normal((3, 7)), np.zeros((1, 7))])  # row 3: held by a clamp, S_33 = 0
+    H = _flexibility(B)
+    rhs, rhs2 = rng.standard_normal(4), np.array([1.0])
+    D = np.array([[0.0], [0.0], [0.0], [-1.0]])
+    got = _bordered(H, D, rhs, rhs2)
+    x, delta = _kkt(H, D, rhs, rhs2)
+    assert got is not None
+    assert np.allclose(got, np.concatenate([x, delta]), rtol=1e-12, atol=1e-12)  # measured: equal to 1e-16
+    blind = np.array([[-1.0], [0.0], [0.0], [0.0]])  # D does not see the held row: singular
+    assert _bordered(H, blind, rhs, rhs2) is None

@@ -218,3 +218,28 @@ def test_a_coarser_level_picks_the_border_when_the_overlap_rule_would_border_too
     assert f_warm == pytest.approx(f_cold, rel=1e-8)
     forced_off = shellcontact.solve(load_case(path, [*sets, "solver.nested=false"]))
     assert "nested_iterations" not in forced_off.info
+
+
+def test_a_nested_start_reports_the_finest_level_alone(caplog) -> None:
+    """The coarser levels of a nested start (``solver.nested``) are solved for their displacements only
+    (pipeline._solve_coarse): their contact zone, rim and summary are not made, so the paper panel's warning (its
+    deflection equals the thickness) is logged once, by the finest level, and not once per level (3 times before).
+    The answer is the cold start's (to the tolerance), the coarse levels' iterations are reported."""
+    import logging
+    from pathlib import Path
+
+    import shellcontact
+    from shellcontact.problem.case import load_case
+
+    path = Path(__file__).resolve().parents[1] / "examples/paper_panel.toml"
+    sets = ["mesh.nx=8", "mesh.nphi=8", "mesh.refine=2"]
+    cold = shellcontact.solve(load_case(path, sets))
+    with caplog.at_level(logging.WARNING):
+        caplog.clear()
+        warm = shellcontact.solve(load_case(path, [*sets, "solver.nested=true"]))
+    logged = [r.getMessage() for r in caplog.records if "deflection is large" in r.getMessage()]
+    assert len(logged) == 1, logged
+    assert len(warm.info["nested_iterations"]) == 2  # [[refine 0], refine 1's iterations]
+    assert np.array_equal(warm.contact.active, cold.contact.active)
+    f_cold, f_warm = (r.summary()["contact"][0]["force_magnitude"] for r in (cold, warm))
+    assert f_warm == pytest.approx(f_cold, rel=1e-9)

@@ -39,6 +39,7 @@ class ShellSpace:
     mesh: ShellMesh
     _argyris: ArgyrisBasis | None = field(default=None, repr=False)
     _finder: object = field(default=None, repr=False)
+    _affine: np.ndarray | None = field(default=None, repr=False)  # (7, nel): ``physical_to_reference``'s maps
     #: memoised basis evaluations and point operators (None: off). ``curves.solve_family`` turns it on for
     #: the space its points share: their post-processing evaluates the same points again and again
     memo: dict | None = field(default=None, repr=False)
@@ -103,11 +104,13 @@ class ShellSpace:
 
     def physical_to_reference(self, elements: np.ndarray, x: np.ndarray, s: np.ndarray) -> np.ndarray:
         """Reference coordinates (2, n) of physical points in the given elements."""
-        p, t = self.mesh.p, self.mesh.t[:, elements]
-        p0, d1, d2 = p[:, t[0]], p[:, t[1]] - p[:, t[0]], p[:, t[2]] - p[:, t[0]]
-        det = d1[0] * d2[1] - d1[1] * d2[0]
-        rx, ry = x - p0[0], s - p0[1]
-        return np.array([(d2[1] * rx - d2[0] * ry) / det, (-d1[1] * rx + d1[0] * ry) / det])
+        if self._affine is None:  # every element's first vertex, edges and det, once: ``locate`` asks 24× per point
+            p, t = self.mesh.p, self.mesh.t
+            p0, d1, d2 = p[:, t[0]], p[:, t[1]] - p[:, t[0]], p[:, t[2]] - p[:, t[0]]
+            self._affine = np.vstack([p0, d1, d2, d1[0] * d2[1] - d1[1] * d2[0]])
+        a = self._affine[:, elements]  # rows: p0 x, s; d1 x, s; d2 x, s; det
+        rx, ry = x - a[0], s - a[1]
+        return np.array([(a[5] * rx - a[4] * ry) / a[6], (-a[3] * rx + a[2] * ry) / a[6]])
 
     def memoized(self, key: tuple, compute: Callable[[], Any]) -> Any:
         """``compute()``, kept in ``memo`` under ``key`` when the memo is on (its values are read only)."""
@@ -245,12 +248,12 @@ class ShellSpace:
         U = np.zeros(self.ndofs)
         mid = 0.5 * (m.p[:, m.facets[0]] + m.p[:, m.facets[1]])
         pts = np.hstack([m.p, mid])  # P2 nodes: vertices then facet midpoints
-        f = fields(pts[0], pts[1])
+        f = fields(pts[0], pts[1])  # once: a coarse solution's evaluation is most of a nested start's prolongation
         U[self.u_slice] = f["u"]
         U[self.v_slice] = f["v"]
-        fv = fields(m.p[0], m.p[1])
-        wv = np.stack([fv[k] for k in W_KINDS], axis=1).ravel()
-        fm = fields(mid[0], mid[1])
+        nv = m.p.shape[1]
+        wv = np.stack([f[k][:nv] for k in W_KINDS], axis=1).ravel()
+        fm = {k: f[k][nv:] for k in ("w_x", "w_s")}
         nrm = self.facet_normals()
         wn = nrm[0] * fm["w_x"] + nrm[1] * fm["w_s"]
         U[self.w_slice] = np.concatenate([wv, wn])
