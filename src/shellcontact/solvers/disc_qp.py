@@ -111,17 +111,32 @@ def _feasible_step(y: np.ndarray, d: np.ndarray, m: int, g: np.ndarray) -> float
     return max(t, 0.0)
 
 
+def _reduced_solve(Hr: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Hr⁺ rhs for the face's Hessian Hr (symmetric, positive SEMI-definite: rows of the dual that depend on each
+    other, a circle's tangent that H does not see). Cholesky where its pivots are clear of round-off; else the
+    minimum-norm least-squares solution. A singular Hr can factor with pivots of round-off size (1e-18 of its
+    largest: the sleeve test at nx = 40), whose step is 1e32 long and lands anywhere on the circles; whether it
+    factors depended on the BLAS thread count."""
+    k = rhs.size
+    if k == 0:
+        return rhs.copy()
+    floor = 64 * k * np.finfo(float).eps * max(float(np.max(np.diag(Hr))), 1e-300)
+    try:
+        factor = la.cho_factor(Hr)
+        if float(np.min(np.abs(np.diag(factor[0])))) ** 2 > floor:
+            return la.cho_solve(factor, rhs)
+    except la.LinAlgError:
+        pass
+    return la.lstsq(Hr, rhs, cond=floor / max(float(np.max(np.diag(Hr))), 1e-300))[0]
+
+
 def _face_step(H: np.ndarray, c: np.ndarray, y: np.ndarray, grad: np.ndarray, m: int, g: np.ndarray, f,
                f0: float) -> np.ndarray:
     """The face step from y (module docstring): Newton on the free variables and along the circles."""
     Z, curv = _face_basis(y, grad, m, g)
     ZH = np.asarray(Z.T @ H)  # k × n: Z has at most two entries per column
     Hr = np.asarray(Z.T @ ZH.T).T + np.diag(curv)
-    try:
-        step_r = la.cho_solve(la.cho_factor(Hr), -(Z.T @ grad))
-    except la.LinAlgError:
-        step_r = la.lstsq(Hr, -(Z.T @ grad))[0]
-    d = Z @ step_r
+    d = Z @ _reduced_solve(Hr, -(Z.T @ grad))
     t_b, t = _feasible_step(y, np.where(_sets(y, m, g)[0], d, 0.0), m, g), 1.0
     while t > t_b:
         zt = project(y + t * d, m, g)
@@ -134,6 +149,11 @@ def _face_step(H: np.ndarray, c: np.ndarray, y: np.ndarray, grad: np.ndarray, m:
     lam = z[:m]
     lam[lam <= _EDGE * max(float(lam.max(initial=0.0)), 1e-300)] = 0.0
     return z
+
+
+def _roundoff(f0: float) -> float:
+    """The round-off of an energy near f0."""
+    return 64 * np.finfo(float).eps * abs(f0)
 
 
 def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray | None = None,
@@ -153,6 +173,7 @@ def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray 
     y = project(np.zeros(n) if y0 is None else np.asarray(y0, float), m, g)
     history = [] if history is None else history
     scale = max(float(np.abs(c).max(initial=0.0)), 1e-300)
+    norm_h = max(float(np.abs(H).sum(axis=1).max(initial=0.0)), 1e-300)
 
     def f(z: np.ndarray) -> float:
         return 0.5 * float(z @ (H @ z)) + float(c @ z)
@@ -177,10 +198,13 @@ def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray 
                 t *= 0.5
         if z is None:  # a face step (also where −β no longer descends: round-off in the proportioning)
             z = _face_step(H, c, y, grad, m, g, f, f0)
-            if f(z) > f0 + 64 * np.finfo(float).eps * abs(f0) or np.array_equal(z, y):  # the round-off floor
-                ok = max(nphi, nbeta) <= _FLOOR * tol * scale
-                history.append({"iteration": it, "step": "stalled", "phi": nphi, "beta": nbeta, "energy": f0})
-                return y, it, ok
+            if f(z) > f0 + _roundoff(f0) or np.array_equal(z, y):  # (a bound reached exactly may keep f)
+                # the expansion step P(y − ᾱ∇f), ᾱ = 1/‖H‖∞ ≤ 1/‖H‖₂: lowers f by ≥ ‖H‖₂/2 |z − y|² off KKT
+                z, step = project(y - grad / norm_h, m, g), "expansion"
+                if f(z) >= f0 - _roundoff(f0):  # the round-off floor
+                    ok = max(nphi, nbeta) <= _FLOOR * tol * scale
+                    history.append({"iteration": it, "step": "stalled", "phi": nphi, "beta": nbeta, "energy": f0})
+                    return y, it, ok
         history.append({"iteration": it, "step": step, "phi": nphi, "beta": nbeta, "energy": f0})
         y = z
     grad = H @ y + c
