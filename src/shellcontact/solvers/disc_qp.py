@@ -94,9 +94,9 @@ def _face_basis(y: np.ndarray, grad: np.ndarray, m: int, g: np.ndarray) -> tuple
     return Z, curv
 
 
-def _feasible_step(y: np.ndarray, d: np.ndarray, m: int, g: np.ndarray) -> float:
-    """The largest t ∈ [0, 1] with y + t d feasible."""
-    t = 1.0
+def _feasible_step(y: np.ndarray, d: np.ndarray, m: int, g: np.ndarray, cap: float = 1.0) -> float:
+    """The largest t ∈ [0, cap] with y + t d feasible."""
+    t = cap
     neg = d[:m] < 0
     if neg.any():
         t = min(t, float(np.min(y[:m][neg] / -d[:m][neg])))
@@ -136,8 +136,16 @@ def _face_step(H: np.ndarray, c: np.ndarray, y: np.ndarray, grad: np.ndarray, m:
     Z, curv = _face_basis(y, grad, m, g)
     ZH = np.asarray(Z.T @ H)  # k × n: Z has at most two entries per column
     Hr = np.asarray(Z.T @ ZH.T).T + np.diag(curv)
-    d = Z @ _reduced_solve(Hr, -(Z.T @ grad))
-    t_b, t = _feasible_step(y, np.where(_sets(y, m, g)[0], d, 0.0), m, g), 1.0
+    rhs = -(Z.T @ grad)
+    x = _reduced_solve(Hr, rhs)
+    free = _sets(y, m, g)[0]
+    res = rhs - Hr @ x  # ≠ 0: f falls linearly along Z res, which Hr does not see: to the first bound along it
+    if np.linalg.norm(res) > 1e-8 * np.linalg.norm(rhs):
+        d = Z @ res
+        reach = _feasible_step(y, np.where(free, d, 0.0), m, g, cap=np.inf)
+        x = res * reach if np.isfinite(reach) else x
+    d = Z @ x
+    t_b, t = _feasible_step(y, np.where(free, d, 0.0), m, g), 1.0
     while t > t_b:
         zt = project(y + t * d, m, g)
         if f(zt) < f0:
