@@ -16,10 +16,15 @@ face minimisation as in ``dual.py`` (S is conditioned like h⁻⁴; fixed-step e
   t = 1, ½, … until f decreases (−β descends: βᵀg = ‖β‖²);
 * else — **face** step: the minimiser z of f with the variables off F held (H_FF z_F = −c_F − H_FN y_N),
   taken if feasible, else the projected search P(y + t(z − y)), t = 1, ½, … down to the largest feasible
-  t_b, where the step stays feasible and decreases f (convex along z − y).
+  t_b, where the step stays feasible and decreases f (convex along z − y). H_FF may be singular (rows that
+  repeat, a circle's tangent H does not see): z is then the minimum-norm solution, and where the face's
+  gradient has a part H_FF does not see (f linear along it) the step goes along that part to the first bound;
+* where the face step does not lower f — **expansion**: P(y − ᾱ∇f) with the fixed step ᾱ = 1/‖H‖∞ ≤ 1/‖H‖₂,
+  which lowers f by at least ‖H‖₂/2 |z − y|² unless y is a KKT point; where that too is below f's round-off,
+  the iteration stops ("stalled") and reports convergence if the projected gradient is within _FLOOR × tol.
 
-Every step decreases f strictly unless y is a KKT point; the test against a general-purpose constrained
-minimiser is ``tests/test_disc_qp.py``.
+Every step decreases f unless y is a KKT point; the tests against a general-purpose constrained minimiser
+(also on singular H) are ``tests/test_disc_qp.py``.
 """
 
 from __future__ import annotations
@@ -196,7 +201,8 @@ def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray 
         z, step = None, "face"
         if beta @ beta > gamma**2 * (phi @ phi):
             Hb = H @ beta
-            alpha = float(beta @ grad) / max(float(beta @ Hb), 1e-300)
+            # β in H's null space (βᵀHβ of round-off, even < 0): a long finite step the projection cuts, not inf
+            alpha = float(beta @ grad) / max(float(beta @ Hb), np.finfo(float).eps * norm_h * float(beta @ beta))
             t = 1.0
             while t > 1e-12:
                 trial = project(y - t * alpha * beta, m, g)
