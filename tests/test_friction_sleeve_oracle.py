@@ -84,6 +84,18 @@ def test_sleeve_friction_matches_1d_oracle():
         assert s2["F"] == pytest.approx(ref.friction_force, rel=0.15)
 
 
+def test_sleeve_friction_at_the_slide_where_mpgp_stalled():
+    """nx = 20 at slide 9.2534 µm: the disc QP's face step stalled here in any BLAS thread setting (a singular face
+    Hessian, solvers/disc_qp.py) and ``solve_pushed`` retried at a slide 1e-6 away; solved directly now, against the
+    oracle at the same slide."""
+    slide = 9.2534e-6
+    d = _case(20)
+    d["punch"][0]["slide"] = [slide, 0.0, 0.0]
+    c = shellcontact.solve(case_from_dict(d)).summary()["contact"][0]
+    s1 = solve_sleeve_friction(SHELL, np.linspace(0.0, 1.0, 21), RS, ZONE, slide, mu=MU, tol=1e-9)
+    assert c["total_normal_force"] * SCALE == pytest.approx(s1.normal_force, rel=3e-5)  # measured 3.3e-6
+    assert c["friction"]["force"][0] * SCALE == pytest.approx(s1.friction_force, rel=0.08)  # measured 2.1 %
+
 def test_oracle_full_slip_is_mu_times_normal_force():
     """The oracle itself: a slide far past the stick range makes every node in contact slip one way, so the friction
     force is μ × the normal force (an identity of the law, independent of the discretisation)."""

@@ -76,19 +76,12 @@ def solve_pushed(case: Case, spec: Any, d: Any, setup: Any, opts: SolverOptions)
     runs: list[tuple[float, float]] = []
 
     def run(alpha: float) -> tuple[float, float, tuple[ContactSolution, dict]]:
-        for nudge in (1.0, 1.0 + 1e-6):  # the disc QP stalled at one slide of the sleeve test (MPGP's face step,
-            # solvers/disc_qp.py): a slide 1e-6 away is solved; a second failure is reported
-            punches = tuple(dataclasses.replace(p, slide=nudge * alpha * e, tangential_force=None) if p is spec else p
-                            for p in case.punches)
-            try:
-                out = solve_path(dataclasses.replace(case, punches=punches), d, setup, opts)
-                break
-            except SolverError:
-                if nudge != 1.0 or alpha == 0.0:
-                    raise
+        punches = tuple(dataclasses.replace(p, slide=alpha * e, tangential_force=None) if p is spec else p
+                        for p in case.punches)
+        out = solve_path(dataclasses.replace(case, punches=punches), d, setup, opts)
         f = float(e @ out[1]["operator"].force(out[0].info["T"])[spec.index])
-        runs.append((nudge * alpha, f))
-        return nudge * alpha, f, out
+        runs.append((alpha, f))
+        return alpha, f, out
 
     def done(alpha: float, out: tuple[ContactSolution, dict]) -> tuple[ContactSolution, dict]:
         out[1]["pushed"] = {"punch": spec.index, "slide": [float(v) for v in alpha * e], "evaluations": len(runs),

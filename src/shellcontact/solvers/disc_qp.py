@@ -16,10 +16,15 @@ face minimisation as in ``dual.py`` (S is conditioned like h⁻⁴; fixed-step e
   t = 1, ½, … until f decreases (−β descends: βᵀg = ‖β‖²);
 * else — **face** step: the minimiser z of f with the variables off F held (H_FF z_F = −c_F − H_FN y_N),
   taken if feasible, else the projected search P(y + t(z − y)), t = 1, ½, … down to the largest feasible
-  t_b, where the step stays feasible and decreases f (convex along z − y).
+  t_b, where the step stays feasible and decreases f (convex along z − y). H_FF may be singular (rows that
+  repeat, a circle's tangent H does not see): z is then the minimum-norm solution, and where the face's
+  gradient has a part H_FF does not see (f linear along it) the step goes along that part to the first bound;
+* where the face step does not lower f — **expansion**: P(y − ᾱ∇f) with the fixed step ᾱ = 1/‖H‖∞ ≤ 1/‖H‖₂,
+  which lowers f by at least ‖H‖₂/2 |z − y|² unless y is a KKT point; where that too is below f's round-off,
+  the iteration stops ("stalled") and reports convergence if the projected gradient is within _FLOOR × tol.
 
-Every step decreases f strictly unless y is a KKT point; the test against a general-purpose constrained
-minimiser is ``tests/test_disc_qp.py``.
+Every step decreases f unless y is a KKT point; the tests against a general-purpose constrained minimiser
+(also on singular H) are ``tests/test_disc_qp.py``.
 """
 
 from __future__ import annotations
@@ -94,9 +99,9 @@ def _face_basis(y: np.ndarray, grad: np.ndarray, m: int, g: np.ndarray) -> tuple
     return Z, curv
 
 
-def _feasible_step(y: np.ndarray, d: np.ndarray, m: int, g: np.ndarray) -> float:
-    """The largest t ∈ [0, 1] with y + t d feasible."""
-    t = 1.0
+def _feasible_step(y: np.ndarray, d: np.ndarray, m: int, g: np.ndarray, cap: float = 1.0) -> float:
+    """The largest t ∈ [0, cap] with y + t d feasible."""
+    t = cap
     neg = d[:m] < 0
     if neg.any():
         t = min(t, float(np.min(y[:m][neg] / -d[:m][neg])))
@@ -111,18 +116,41 @@ def _feasible_step(y: np.ndarray, d: np.ndarray, m: int, g: np.ndarray) -> float
     return max(t, 0.0)
 
 
+def _reduced_solve(Hr: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Hr⁺ rhs for the face's Hessian Hr (symmetric, positive SEMI-definite: rows of the dual that depend on each
+    other, a circle's tangent that H does not see). Cholesky where its pivots are clear of round-off; else the
+    minimum-norm least-squares solution. A singular Hr can factor with pivots of round-off size (1e-18 of its
+    largest: the sleeve test at nx = 40), whose step is 1e32 long and lands anywhere on the circles; whether it
+    factors depended on the BLAS thread count."""
+    k = rhs.size
+    if k == 0:
+        return rhs.copy()
+    floor = 64 * k * np.finfo(float).eps * max(float(np.max(np.diag(Hr))), 1e-300)
+    try:
+        factor = la.cho_factor(Hr)
+        if float(np.min(np.abs(np.diag(factor[0])))) ** 2 > floor:
+            return la.cho_solve(factor, rhs)
+    except la.LinAlgError:
+        pass
+    return la.lstsq(Hr, rhs, cond=floor / max(float(np.max(np.diag(Hr))), 1e-300))[0]
+
+
 def _face_step(H: np.ndarray, c: np.ndarray, y: np.ndarray, grad: np.ndarray, m: int, g: np.ndarray, f,
                f0: float) -> np.ndarray:
     """The face step from y (module docstring): Newton on the free variables and along the circles."""
     Z, curv = _face_basis(y, grad, m, g)
     ZH = np.asarray(Z.T @ H)  # k × n: Z has at most two entries per column
     Hr = np.asarray(Z.T @ ZH.T).T + np.diag(curv)
-    try:
-        step_r = la.cho_solve(la.cho_factor(Hr), -(Z.T @ grad))
-    except la.LinAlgError:
-        step_r = la.lstsq(Hr, -(Z.T @ grad))[0]
-    d = Z @ step_r
-    t_b, t = _feasible_step(y, np.where(_sets(y, m, g)[0], d, 0.0), m, g), 1.0
+    rhs = -(Z.T @ grad)
+    x = _reduced_solve(Hr, rhs)
+    free = _sets(y, m, g)[0]
+    res = rhs - Hr @ x  # ≠ 0: f falls linearly along Z res, which Hr does not see: to the first bound along it
+    if np.linalg.norm(res) > 1e-8 * np.linalg.norm(rhs):
+        d = Z @ res
+        reach = _feasible_step(y, np.where(free, d, 0.0), m, g, cap=np.inf)
+        x = res * reach if np.isfinite(reach) else x
+    d = Z @ x
+    t_b, t = _feasible_step(y, np.where(free, d, 0.0), m, g), 1.0
     while t > t_b:
         zt = project(y + t * d, m, g)
         if f(zt) < f0:
@@ -134,6 +162,11 @@ def _face_step(H: np.ndarray, c: np.ndarray, y: np.ndarray, grad: np.ndarray, m:
     lam = z[:m]
     lam[lam <= _EDGE * max(float(lam.max(initial=0.0)), 1e-300)] = 0.0
     return z
+
+
+def _roundoff(f0: float) -> float:
+    """The round-off of an energy near f0."""
+    return 64 * np.finfo(float).eps * abs(f0)
 
 
 def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray | None = None,
@@ -153,6 +186,7 @@ def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray 
     y = project(np.zeros(n) if y0 is None else np.asarray(y0, float), m, g)
     history = [] if history is None else history
     scale = max(float(np.abs(c).max(initial=0.0)), 1e-300)
+    norm_h = max(float(np.abs(H).sum(axis=1).max(initial=0.0)), 1e-300)
 
     def f(z: np.ndarray) -> float:
         return 0.5 * float(z @ (H @ z)) + float(c @ z)
@@ -167,7 +201,8 @@ def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray 
         z, step = None, "face"
         if beta @ beta > gamma**2 * (phi @ phi):
             Hb = H @ beta
-            alpha = float(beta @ grad) / max(float(beta @ Hb), 1e-300)
+            # β in H's null space (βᵀHβ of round-off, even < 0): a long finite step the projection cuts, not inf
+            alpha = float(beta @ grad) / max(float(beta @ Hb), np.finfo(float).eps * norm_h * float(beta @ beta))
             t = 1.0
             while t > 1e-12:
                 trial = project(y - t * alpha * beta, m, g)
@@ -177,10 +212,13 @@ def disc_qp(H: np.ndarray, c: np.ndarray, m: int, g: np.ndarray, y0: np.ndarray 
                 t *= 0.5
         if z is None:  # a face step (also where −β no longer descends: round-off in the proportioning)
             z = _face_step(H, c, y, grad, m, g, f, f0)
-            if f(z) > f0 + 64 * np.finfo(float).eps * abs(f0) or np.array_equal(z, y):  # the round-off floor
-                ok = max(nphi, nbeta) <= _FLOOR * tol * scale
-                history.append({"iteration": it, "step": "stalled", "phi": nphi, "beta": nbeta, "energy": f0})
-                return y, it, ok
+            if f(z) > f0 + _roundoff(f0) or np.array_equal(z, y):  # (a bound reached exactly may keep f)
+                # the expansion step P(y − ᾱ∇f), ᾱ = 1/‖H‖∞ ≤ 1/‖H‖₂: lowers f by ≥ ‖H‖₂/2 |z − y|² off KKT
+                z, step = project(y - grad / norm_h, m, g), "expansion"
+                if f(z) >= f0 - _roundoff(f0):  # the round-off floor
+                    ok = max(nphi, nbeta) <= _FLOOR * tol * scale
+                    history.append({"iteration": it, "step": "stalled", "phi": nphi, "beta": nbeta, "energy": f0})
+                    return y, it, ok
         history.append({"iteration": it, "step": step, "phi": nphi, "beta": nbeta, "energy": f0})
         y = z
     grad = H @ y + c
