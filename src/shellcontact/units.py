@@ -61,7 +61,7 @@ SUMMARY_KINDS: tuple[tuple[str, str | None], ...] = (
     ("dofs", None), ("unknowns", None), ("elements", None), ("vertices", None), ("iterations", None),
     ("tolerance", None), ("kkt_scaled.*", None), ("equilibrium.relative_residual", None),
     ("contact.constraints", None), ("contact.rim.lines", None), ("contact.active_vertices", None),
-    ("contact.active_points", None),
+    ("contact.active_points", None), ("contact.rim.samples.line", None),  # a sample's line: an index into per_line
     ("stresses.*.utilisation_max", None),
     ("kkt.stationarity", None), ("kkt.complementarity", None), ("kkt.duality_gap", None),
     ("kkt.force_balance", None),
