@@ -39,7 +39,7 @@ PENALTY_FIXED_POINT_TOL = 1e-7
 
 def has_friction(case: Case) -> bool:
     """Whether any punch of ``case`` has friction or a slide (else the frictionless path, unchanged)."""
-    return any(p.friction.active or p.slide is not None for p in case.punches)
+    return any(p.drags for p in case.punches)
 
 
 def load_stages(case: Case) -> list[tuple[float, float]]:

@@ -177,9 +177,11 @@ class Factorizer:
 
 def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer: Timer, *,
                       warm_start: Result | None = None, progress: Callable[[int, dict], None] | None = None,
-                      max_memory: float | str | None = None, factorizer: Factorizer | None = None) -> Result:
+                      max_memory: float | str | None = None, factorizer: Factorizer | None = None,
+                      lazy: bool = False) -> Result:
     """``solve`` from the discretisation ``d`` of ``case`` on: factorisation (by ``factorizer``), the linear
-    or contact solve, post-processing."""
+    or contact solve, post-processing (``lazy``: a frictionless contact result's zone, rim and checks wait until
+    asked for, ``contact_result``)."""
     factorizer = factorizer or Factorizer()
     configure_mumps(out_of_core=opts.out_of_core)
     space, A, F, red, op = d.space, d.A, d.F, d.reduction, d.operator
@@ -207,7 +209,7 @@ def solve_discretized(case: Case, d: Discretization, opts: SolverOptions, timer:
     with timer.stage("solve"):
         cs = _solve_contact(setup.qp, opts, setup.factorization, setup.initial_U, setup.initial_active, setup.eps,
                             progress, setup.screen)
-    return contact_result(case, d, opts, timer, setup.info, cs)
+    return contact_result(case, d, opts, timer, setup.info, cs, lazy=lazy)
 
 
 @dataclass
@@ -268,19 +270,14 @@ def prepare_contact(case: Case, d: Discretization, opts: SolverOptions, timer: T
 def _solve_coarse(case: Case, opts: SolverOptions, max_memory: float | str | None) -> Result:
     """The coarser level of a nested start (``solver.nested``): ``solve`` without what only a reported result needs
     (its contact zone, rim and summary: ~5 CPU s at 281k dofs, and the summary's warnings repeated the fine
-    level's on stderr). Its displacements, rows and iterations are what the finer level reads."""
-    if has_friction(case):
-        return solve(case, method=opts.method, backend=opts.backend, max_memory=max_memory)
+    level's on stderr). Its displacements, rows and iterations are what the finer level reads; the finer level's
+    size check covered it."""
     timer = Timer()
     with unit_hint_on_error(case):
         with timer.stage("mesh"):
             punches = place_punches(case.punches, case.shell, case.units)
         d = discretize(case, opts.contact_points, timer, punches)
-        setup = prepare_contact(case, d, opts, timer, max_memory=max_memory)
-        with timer.stage("solve"):
-            cs = _solve_contact(setup.qp, opts, setup.factorization, setup.initial_U, setup.initial_active,
-                                setup.eps, None, setup.screen)
-        return contact_result(case, d, opts, timer, setup.info, cs, lazy=True)
+        return solve_discretized(case, d, opts, timer, max_memory=max_memory, lazy=True)
 
 
 def contact_result(case: Case, d: Discretization, opts: SolverOptions, timer: Timer, info: dict[str, Any],

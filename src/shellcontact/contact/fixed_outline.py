@@ -42,9 +42,15 @@ def fixed_punch_points(space: ShellSpace, p: Punch, operator: ContactOperator, r
     on_shell = (x >= sh.x_min) & (x <= sh.x_max)
     if not sh.full:
         on_shell &= (s >= sh.s_min) & (s <= sh.s_max)
-    phi = np.mod(s / sh.radius, 2.0 * np.pi) if sh.full else s / sh.radius
-    outside = new & on_shell & ~(p.zone.contains(x, phi) & facing_body(space, p, x, s))
+    outside = new & on_shell & ~in_zone_facing_body(space, p, x, s)
     return np.vstack([pts, mirrored[outside]]), np.concatenate([touching, np.zeros(int(outside.sum()), bool)])
+
+
+def in_zone_facing_body(space: ShellSpace, p: Punch, x: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Whether points (x, s = aφ) lie in the punch's candidate zone, facing its body."""
+    sh = space.mesh.shell
+    phi = np.mod(s / sh.radius, 2.0 * np.pi) if sh.full else s / sh.radius
+    return p.zone.contains(x, phi) & facing_body(space, p, x, s)
 
 
 def class_field(pts: np.ndarray, touching: np.ndarray, X: np.ndarray, S: np.ndarray, period: float | None

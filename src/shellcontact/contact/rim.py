@@ -39,7 +39,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..shell.spaces import ShellSpace
-from .fixed_outline import class_field, fixed_punch_points
+from .fixed_outline import class_field, fixed_punch_points, in_zone_facing_body
 from .interior import interior_split
 from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
 from .point_forces import describe, point_force_clusters
@@ -85,23 +85,12 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
             out.append(_only_points(points, force, zone["area"]) if points else None)
             continue
         # a fixed punch's outline reaches half a point spacing past a row of points on the body's edge
-        on_body = _body_test(space, p) if touching is not None else None
+        body = (lambda q, p=p: in_zone_facing_body(space, p, q[:, 0], q[:, 1])) if touching is not None else None
         entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, operator.weights[rows],
-                                 zone["area"], on_body)
+                                 zone["area"], body)
         polylines[-1] = rim
         out.append({**entry, "point_force": sum(q["force"] for q in points), "point_forces": points})
     return out, polylines
-
-
-def _body_test(space: ShellSpace, p: Punch) -> Callable[[np.ndarray], np.ndarray]:
-    """Whether points (n, 2) in (x, s) lie in the punch's zone, facing its body."""
-    sh = space.mesh.shell
-
-    def test(q: np.ndarray) -> np.ndarray:
-        phi = q[:, 1] / sh.radius
-        phi = np.mod(phi, 2.0 * np.pi) if sh.full else phi
-        return p.zone.contains(q[:, 0], phi) & facing_body(space, p, q[:, 0], q[:, 1])
-    return test
 
 
 def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,

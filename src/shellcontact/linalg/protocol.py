@@ -67,7 +67,6 @@ class Factorization(ABC):
                 self.schur = DenseSchur(B=border, S=S)
             else:
                 rho = border_weight(Bs, border_flexibility)
-                t0 = time.perf_counter()
                 T = self._factor_bordered(As, Bs, rho)
                 t1 = time.perf_counter()
                 self.schur = SchurComplement.from_bordered(border, rho, T)

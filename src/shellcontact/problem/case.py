@@ -413,8 +413,7 @@ def _case_from_dict(data: dict, source: str | Path | None, consent: CodeConsent 
         _check_inside(shell, f"probes.{i}", *pr)
     solver = parse_solver(data.get("solver", {}))
     punches = parse_punches(data.get("punch", []))
-    if (solver.steps > 1 or solver.path != "proportional") and not any(
-            p.friction.active or p.slide is not None for p in punches):
+    if (solver.steps > 1 or solver.path != "proportional") and not any(p.drags for p in punches):
         raise InputError("solver.steps", "a load path (steps > 1, path) is used only with friction or a slide "
                                          "(punch.<i>.friction, punch.<i>.slide): a frictionless solve is path "
                                          "independent")

@@ -80,6 +80,11 @@ class PunchSpec:
         return f"punch.{self.index}"
 
     @property
+    def drags(self) -> bool:
+        """Whether the punch acts along the surface too: friction, or a slide (a tangential force needs friction)."""
+        return self.friction.active or self.slide is not None
+
+    @property
     def zone_given(self) -> bool:
         return self.zone_x is not None or self.zone_phi is not None
 

@@ -32,8 +32,7 @@ def plot_friction(result, path: str | Path | None = None) -> Figure | None:
     t1, t2 = traction[:, 0], np.sum(traction.T * e2, axis=0)  # axial and circumferential components (Pa)
     entries = getattr(result.contact, "friction", None) or []
     op = result.contact.operator
-    punches = [k for k, p in enumerate(result.case.punches) if p.friction.active or p.slide is not None
-               or getattr(p, "tangential_force", None) is not None]
+    punches = [k for k, p in enumerate(result.case.punches) if p.drags]
     n = len(punches)
     fig = Figure(figsize=(7.6 if n == 1 else 6.2 * n, 5.0), layout="constrained")
     for j, k in enumerate(punches):
