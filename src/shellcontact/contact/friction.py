@@ -159,7 +159,7 @@ class CoulombRecord:
 
 def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndarray], np.ndarray],
                   tresca: Callable, max_iterations: int = 50, fixed_point_tol: float = COULOMB_TOL,
-                  warm: Callable[[Any], dict] | None = None, **solver_options):
+                  warm: Callable[[Any], dict] | None = None, start: Any = None, **solver_options):
     """Friction whose bounds depend on the normal forces, g = bounds(Λ), by the fixed point on Tresca problems:
     g^0 = bounds(Λ) of the frictionless solution (``tresca`` with g = 0), g^{k+1} = bounds(Λ^k), until
     ‖g^{k+1} − g^k‖∞ ≤ fixed_point_tol·‖g^{k+1}‖∞. Coulomb: bounds(Λ) = μ |∇Z| Λ
@@ -168,8 +168,9 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
     ``solver_options``); ``warm(solution)`` gives the options that start the next solve from the last one. The
     contraction factor (geometric mean) is measured on the changes above 1000·fixed_point_tol (below, the
     solver's round-off decides).
+    ``start``: the frictionless solution, when the caller has it (then not solved again).
     Returns the last Tresca solution and a ``CoulombRecord``."""
-    sol = tresca(qp, C, c, np.zeros(qp.m), **solver_options)
+    sol = start if start is not None else tresca(qp, C, c, np.zeros(qp.m), **solver_options)
     g = bounds(sol.Lambda)
     changes: list[float] = []
     converged = cycle = False

@@ -202,7 +202,9 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
         fallback = "iterations"
     t3 = time.perf_counter()
     if fallback is not None:  # the dual from this iterate (module docstring)
-        sol = solve_tresca_dual(qp, C, c, g, tol=tol, factorization=ws.fact,
+        # its Ŝ from this Workspace's Schur columns and pair solves (no second solve per row or pair)
+        dual_cache = {"SBB": ws.block(np.arange(m)), "X": cache["X"]} if "X" in cache else None
+        sol = solve_tresca_dual(qp, C, c, g, tol=tol, factorization=ws.fact, cache=dual_cache,
                                 initial=np.concatenate([np.maximum(Lam, 0.0), T]))
         sol.method = "tresca-active-set"
         sol.iterations += it
