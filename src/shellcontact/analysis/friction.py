@@ -203,7 +203,7 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
             start = solve_screened(qp, setup.screen, solve_active_set, setup.factorization, tol=opts.tolerance,
                                    initial_active=setup.initial_active)
             start.info.update(T=np.zeros(2 * qp.m), bounds=np.zeros(qp.m))
-            options["screen"], options["tresca"] = setup.screen, solve_tresca_newton
+            options["screen"], options["solver"] = setup.screen, solve_tresca_newton
             tresca = solve_tresca_screened
 
         def warm(sol: ContactSolution) -> dict:
@@ -222,7 +222,7 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
         def warm(sol: ContactSolution) -> dict:
             return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, start=start,
-                                **options)
+                                accelerate=bool(np.any(mu > 0)), **options)  # Coulomb: Anderson's mixing
     return sol, record, top
 
 

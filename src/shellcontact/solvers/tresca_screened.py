@@ -34,10 +34,10 @@ def screened_order(screen: np.ndarray, extra: np.ndarray) -> np.ndarray:
     return np.concatenate([screen, np.flatnonzero(extra & ~inside)])
 
 
-def solve_tresca_screened(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.ndarray, tresca: Callable,
+def solve_tresca_screened(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.ndarray, solver: Callable,
                           screen: np.ndarray, factorization: Factorization, cache: dict,
                           initial: np.ndarray | None = None, max_rounds: int = 20, **options) -> ContactSolution:
-    """``tresca`` (``solve_tresca_newton``) on the rows ``screen`` plus those with Λ > 0 in ``initial`` or a bound
+    """``solver`` (``solve_tresca_newton``) on the rows ``screen`` plus those with Λ > 0 in ``initial`` or a bound
     g > 0 (module docstring), growing by the rows outside that penetrate. ``cache`` keeps the row set and, per
     row set, the solver's cache (its Workspace on the restricted QP) between calls."""
     m = qp.m
@@ -57,7 +57,7 @@ def solve_tresca_screened(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.
         pr = _pair_rows(order)
         start = None if initial is None else np.concatenate([lam0[order], np.asarray(initial[m:]).reshape(-1, 2)[order]
                                                              .ravel()])
-        sol = tresca(sub, C[pr], c[pr], g[order], factorization=factorization, initial=start, cache=inner, **options)
+        sol = solver(sub, C[pr], c[pr], g[order], factorization=factorization, initial=start, cache=inner, **options)
         gap = qp.gap(sol.U)
         outside = ~_mask(order, m) & (gap < 0)
         if not outside.any() or -gap[outside].min() <= options.get("tol", 1e-10) * max(float(np.abs(gap).max()),
