@@ -50,7 +50,12 @@ _FLOOR = 1e3
 
 
 def _pair_solves(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, ws: Workspace, cache: dict) -> np.ndarray:
-    """A⁻¹C_jᵀ for the pairs ``pairs`` (n × 2·len(pairs)), solved once per pair and kept in ``cache["X"]``."""
+    """A⁻¹C_jᵀ for the pairs ``pairs`` (n × 2·len(pairs)), solved once per pair and kept in ``cache["X"]``; the
+    stacked matrix too, for the same pairs (stacking it anew every iteration, 120 MB at 68k unknowns and 110
+    pairs, took 1.1 s of each Newton step: 245 of 367 s of a Tresca run)."""
+    key = pairs.tobytes()
+    if cache.get("stacked_key") == key:
+        return cache["stacked"]
     X: dict = cache.setdefault("X", {})
     new = np.array([j for j in pairs if j not in X], dtype=int)
     if new.size:
@@ -61,7 +66,11 @@ def _pair_solves(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, ws: Workspa
             Xn[:, cols] = ws.fact.solve_many(RT[:, cols].toarray(), refine=False)
         for i, j in enumerate(new):
             X[j] = Xn[:, 2 * i:2 * i + 2]
-    return np.hstack([X[j] for j in pairs]) if len(pairs) else np.zeros((qp.n, 0))
+    stacked = np.hstack([X[j] for j in pairs]) if len(pairs) else np.zeros((qp.n, 0))
+    for i, j in enumerate(pairs):  # views into the stack: one copy of the solves in memory
+        X[j] = stacked[:, 2 * i:2 * i + 2]
+    cache.update(stacked_key=key, stacked=stacked)
+    return stacked
 
 
 def _tangential_ncp(T: np.ndarray, sig: np.ndarray, g: np.ndarray, ct: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
