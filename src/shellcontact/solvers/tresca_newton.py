@@ -67,6 +67,8 @@ def _pair_solves(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, ws: Workspa
         for i, j in enumerate(new):
             X[j] = Xn[:, 2 * i:2 * i + 2]
     stacked = np.hstack([X[j] for j in pairs]) if len(pairs) else np.zeros((qp.n, 0))
+    for j in X.keys() - set(pairs.tolist()):  # the pairs left out own their columns: the last stack is freed
+        X[j] = X[j].copy()
     for i, j in enumerate(pairs):  # views into the stack: one copy of the solves in memory
         X[j] = stacked[:, 2 * i:2 * i + 2]
     cache.update(stacked_key=key, stacked=stacked)
