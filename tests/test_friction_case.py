@@ -74,11 +74,13 @@ def test_coulomb_summary_entry():
 
 
 def test_large_mu_warns_that_the_fixed_point_does_not_contract():
-    """μ = 5 on the same panel: the fixed point stops contracting (measured q = 0.99, not converged in 50
-    iterations; q = 0.33 at μ = 3): the coded warning says the static Coulomb problem may not be unique."""
+    """μ = 5 on the same panel: the plain fixed point falls into a 2-cycle (not converged in 50 iterations);
+    Anderson's mixing finds a fixed point between them, but the map G does not contract (the largest ratio
+    |ΔG|/|Δg| measured 1.75; 0.45 at μ = 3): the coded warning says the static Coulomb problem may not be
+    unique."""
     s = solved(friction=5.0, slide=(1e-3, 0.0, 0.0)).summary()
     fp = s["contact"][0]["friction"]["fixed_point"]
-    assert not fp["converged"] and fp["contraction"] > 0.9
+    assert fp["acceleration"] == "anderson" and fp["contraction"] > 0.9
     assert "friction_contraction" in [w["code"] for w in s["warnings"]]
 
 

@@ -27,9 +27,12 @@ from ..errors import InputError, SolverError
 from ..linalg import factorize
 from ..problem.case import Case
 from ..problem.options import SolverOptions
+from ..solvers.active_set import solve_active_set
 from ..solvers.qp import ContactSolution
+from ..solvers.screening import solve_screened
 from ..solvers.tresca import solve_tresca_dual, solve_tresca_penalty
 from ..solvers.tresca_newton import solve_tresca_newton
+from ..solvers.tresca_screened import solve_tresca_screened
 from .validity import ResultWarning
 
 #: the penalty's normal forces carry Newton's round-off (changes of ~3e-9 of the largest bound between
@@ -183,10 +186,18 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
     def bounds(Lam: np.ndarray) -> np.ndarray:
         return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
 
+    start = None
     if opts.method == "active-set":
-        options: dict[str, Any] = {"factorization": setup.factorization if setup.screen is None else None,
-                                   "tol": opts.tolerance, "cache": {}}
+        # the pipeline's factorisation solves A whether or not it is bordered by the screened rows
+        options: dict[str, Any] = {"factorization": setup.factorization, "tol": opts.tolerance, "cache": {}}
         tresca, fixed_tol = solve_tresca_newton, COULOMB_TOL
+        if setup.screen is not None and qp is setup.qp:  # the frictionless solve of the pipeline, screened, is
+            # the start; every Tresca solve runs on the screened rows with its dense Schur complement
+            start = solve_screened(qp, setup.screen, solve_active_set, setup.factorization, tol=opts.tolerance,
+                                   initial_active=setup.initial_active)
+            start.info.update(T=np.zeros(2 * qp.m), bounds=np.zeros(qp.m))
+            options["screen"], options["solver"] = setup.screen, solve_tresca_newton
+            tresca = solve_tresca_screened
 
         def warm(sol: ContactSolution) -> dict:
             return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
@@ -203,7 +214,8 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
 
         def warm(sol: ContactSolution) -> dict:
             return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
-    sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, **options)
+    sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, start=start,
+                                accelerate=bool(np.any(mu > 0)), **options)  # Coulomb: Anderson's mixing
     return sol, record, top
 
 
