@@ -264,3 +264,27 @@ def test_sweep_prints_a_table_and_progress_lines_without_float_noise(tmp_path: P
     q = cli("sweep", CASE, *SMALL, "--param", "shell.thickness", "--values", "0.2:0.3:2", "--no-figures",
             "-o", "sq", "--quiet", cwd=tmp_path)
     assert q.stdout == "" and not any(ln.startswith("[") for ln in q.stderr.splitlines())
+
+
+def test_a_command_leaves_the_logger_as_it_found_it(tmp_path: Path) -> None:
+    """The command's handlers go when it returns: one left on the stderr it was given (closed by its caller,
+    as pytest's capture is) printed "Logging error … I/O operation on closed file" at the next message of a
+    later, unrelated call, and --log's file stayed open."""
+    import contextlib
+    import io
+    import logging
+
+    from shellcontact.cli import main
+
+    logger = logging.getLogger("shellcontact")
+    before = (list(logger.handlers), logger.propagate, logger.level)
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        assert main(["info", "--log", str(tmp_path / "info.log")]) == 0
+    err.close()
+    assert (list(logger.handlers), logger.propagate, logger.level) == before
+    problems = io.StringIO()
+    with contextlib.redirect_stderr(problems):
+        logger.warning("a message after the command")  # the closed stream is no longer written to
+    assert "Logging error" not in problems.getvalue()
+    assert (tmp_path / "info.log").read_text().startswith("shellcontact log")

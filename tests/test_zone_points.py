@@ -30,7 +30,7 @@ def test_nearest_point_class_wraps_around_a_closed_cylinder():
                                np.array([0.0, 3.2]), np.array([True, False])).tolist() == [False]
 
 
-def test_mirror_saddles_get_one_zone_that_the_gap_tolerance_does_not_move():
+def test_mirror_saddles_get_one_zone_that_the_gap_tolerance_does_not_move(caplog):
     """examples/vessel_saddles.toml at 48 x 48 (a mesh that is its own mirror image about x = 0, checked):
     the two saddles' zones agree to 1e-3 in area and extents, and a gap tolerance 10x smaller or larger gives
     the same zone (before: the interpolated gap put 0.096, 0.140, 0.343 m² of the left saddle in contact at
@@ -40,7 +40,7 @@ def test_mirror_saddles_get_one_zone_that_the_gap_tolerance_does_not_move():
     mesh = build_mesh(case.shell, case.mesh, *mesh_lines(case, place_punches(case.punches, case.shell)))
     vertices = set(map(tuple, np.round(mesh.p.T, 9)))
     assert vertices == {(-x, s) for x, s in vertices}  # the mesh respects the mirror symmetry
-    logging.getLogger("shellcontact").setLevel(logging.ERROR)
+    caplog.set_level(logging.ERROR, logger="shellcontact")  # restored after the test
     result = sc.solve(case)
     c = result.contact
     zones = {rel: contact_zone(result.solution.space, result.punches, result.solution.U, c.delta, rel_gap=rel,

@@ -29,7 +29,7 @@ import traceback
 from pathlib import Path
 
 from . import __version__
-from .console import Console, setup_logging
+from .console import Console, restore_logging, setup_logging
 from .errors import InputError, SolverError
 from .solvers.methods import METHODS
 
@@ -590,6 +590,7 @@ def _main(argv: list[str] | None) -> int:
         log.info("".join(traceback.format_exception(exc)).rstrip())
         return EXIT_FAIL
     finally:
+        restore_logging()
         for sig, handler in handlers.items():
             signal.signal(sig, handler)
 

@@ -59,7 +59,12 @@ class Console:
             self._drawn = False
 
 
+_saved: list[tuple[list[logging.Handler], bool, int]] = []
+
+
 def setup_logging(verbose: int, quiet: bool, log_file: str | None) -> None:
+    """The command's handlers (stderr, --log), in place of the logger's own until ``restore_logging``."""
+    _saved.append((list(log.handlers), log.propagate, log.level))
     log.handlers.clear()
     log.propagate = False
     log.setLevel(logging.DEBUG)
@@ -78,6 +83,20 @@ def setup_logging(verbose: int, quiet: bool, log_file: str | None) -> None:
         fh.setLevel(logging.DEBUG)
         fh.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
         log.addHandler(fh)
+
+
+def restore_logging() -> None:
+    """Close the command's handlers and give the logger back its state: a handler left on a stream that its
+    caller has closed (a captured stderr) would print a "Logging error" at the next message, and --log's file
+    would stay open."""
+    if not _saved:
+        return
+    handlers, propagate, level = _saved.pop()
+    for handler in list(log.handlers):
+        log.removeHandler(handler)
+        handler.close()
+    log.handlers[:] = handlers
+    log.propagate, log.level = propagate, level
 
 
 class LogFile(logging.FileHandler):
