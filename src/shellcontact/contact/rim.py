@@ -442,6 +442,16 @@ def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: 
     return out, [np.stack([c + lo * e, c + hi * e])]
 
 
+def _to_segments(pts: np.ndarray, seg0: np.ndarray, d: np.ndarray, len2: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each point (rows) and segment (columns): the projection parameter t ∈ [0, 1], the nearest point of
+    the segment and the distance to it — one kernel, so that the nearest and the second-nearest segment's
+    distances compare without round-off between two formulas."""
+    tt = np.clip(np.einsum("nsk,sk->ns", pts[:, None, :] - seg0[None], d) / len2, 0.0, 1.0)
+    near = seg0[None] + tt[..., None] * d[None]
+    return tt, near, np.linalg.norm(pts[:, None, :] - near, axis=2)
+
+
 def _nearest_segment(pts: np.ndarray, seg0: np.ndarray, seg1: np.ndarray,
                      chunk: int = 1024) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each point: its nearest segment, the projection parameter t ∈ [0, 1] on it and the distance."""
@@ -449,9 +459,7 @@ def _nearest_segment(pts: np.ndarray, seg0: np.ndarray, seg1: np.ndarray,
     len2 = np.maximum(np.einsum("sk,sk->s", d, d), 1e-300)
     j, t, dist = (np.zeros(len(pts), int), np.zeros(len(pts)), np.zeros(len(pts)))
     for lo in range(0, len(pts), chunk):
-        q = pts[lo:lo + chunk, None, :] - seg0[None]
-        tt = np.clip(np.einsum("nsk,sk->ns", q, d) / len2, 0.0, 1.0)
-        dd = np.linalg.norm(q - tt[..., None] * d[None], axis=2)
+        tt, _, dd = _to_segments(pts[lo:lo + chunk], seg0, d, len2)
         jj = np.argmin(dd, axis=1)
         rows = np.arange(len(jj))
         j[lo:lo + chunk], t[lo:lo + chunk], dist[lo:lo + chunk] = jj, tt[rows, jj], dd[rows, jj]
@@ -468,10 +476,7 @@ def _second_segment(pts: np.ndarray, seg0: np.ndarray, seg1: np.ndarray, j: np.n
     foot = seg0[j] + t[:, None] * d[j]
     j2, t2, tied = np.zeros(len(pts), int), np.zeros(len(pts)), np.zeros(len(pts), bool)
     for lo in range(0, len(pts), chunk):
-        q = pts[lo:lo + chunk, None, :] - seg0[None]
-        tt = np.clip(np.einsum("nsk,sk->ns", q, d) / len2, 0.0, 1.0)
-        near = seg0[None] + tt[..., None] * d[None]
-        dd = np.linalg.norm(pts[lo:lo + chunk, None, :] - near, axis=2)
+        tt, near, dd = _to_segments(pts[lo:lo + chunk], seg0, d, len2)
         dd[np.linalg.norm(near - foot[lo:lo + chunk, None, :], axis=2) <= 1e3 * tol] = np.inf
         jj = np.argmin(dd, axis=1)
         rows = np.arange(len(jj))
