@@ -365,12 +365,11 @@ class Workspace:
     def _face_residual(self, idx: np.ndarray, sol: FaceSolution, rhs: np.ndarray, DI: np.ndarray | None,
                        diagonal: np.ndarray, chunk: int = 1024) -> float:
         """‖S_II x + D_I δ − rhs‖∞ / (max S_ii ‖x‖₁ + ‖rhs‖∞): a backward-stable solve leaves ~|I|·ε here
-        (by chunks of whole rows of the cached columns: contiguous copies, no |I| × |I| gather)."""
+        (S_II gathered by chunks of rows, no |I| × |I| copy)."""
         r = -rhs if DI is None or sol.delta is None else DI @ sol.delta - rhs
-        z = np.zeros(self._ncol)
-        z[self._pos[idx]] = sol.x
+        pos = self._pos[idx]
         for s in range(0, idx.size, chunk):
-            r[s : s + chunk] += self._store[idx[s : s + chunk], : self._ncol] @ z
+            r[s : s + chunk] += self._store[np.ix_(idx[s : s + chunk], pos)] @ sol.x
         scale = float(diagonal.max(initial=0.0)) * float(np.abs(sol.x).sum()) + float(np.abs(rhs).max(initial=0.0))
         return float(np.abs(r).max(initial=0.0)) / scale if scale > 0.0 else 0.0
 
