@@ -176,7 +176,6 @@ def worker(n: int, refine: int, method: str, nested: bool, backend: str = "auto"
         # the contact solve's parts (wall s), its border (the screened rows per round) and Schur columns
         "solver_timings": {k: float(v) for k, v in res.info.get("solver_timings", {}).items()},
         "screening": cs.info.get("screening"),
-        "face_factors": cs.info.get("face_factors"),
     }
 
 

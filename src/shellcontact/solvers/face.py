@@ -64,20 +64,11 @@ def independent_cholesky(H: np.ndarray, rtol: float = PIVOT_RTOL) -> tuple[tuple
     return sla.cho_factor(H[np.ix_(keep, keep)], lower=True, check_finite=False), keep
 
 
-def solve_face(H: np.ndarray | None, rhs: np.ndarray, DI: np.ndarray | None = None,
-               rhs2: np.ndarray | None = None,
-               factor: tuple[np.ndarray, np.ndarray] | None = None) -> FaceSolution:
-    """Solve the face system of the module docstring, dropping dependent rows and undetermined columns of D.
-    ``factor`` = (order, L): a Cholesky factor of H[order][:, order] with no pivot at round-off, ``order`` a
-    permutation of the face's positions (``face_factor``); H is then not read (may be None)."""
-    if factor is not None:
-        order, L = factor
-        n = order.size
-        cf, keep = (L, True), order
-    else:
-        assert H is not None
-        n = H.shape[0]
-        cf, keep = independent_cholesky(H)
+def solve_face(H: np.ndarray, rhs: np.ndarray, DI: np.ndarray | None = None,
+               rhs2: np.ndarray | None = None) -> FaceSolution:
+    """Solve the face system of the module docstring, dropping dependent rows and undetermined columns of D."""
+    n = H.shape[0]
+    cf, keep = independent_cholesky(H)
     dropped_rows = np.setdiff1d(np.arange(n), keep)
     x = np.zeros(n)
     if DI is None:
@@ -86,7 +77,7 @@ def solve_face(H: np.ndarray | None, rhs: np.ndarray, DI: np.ndarray | None = No
         return FaceSolution(x, None, dropped_rows, np.zeros(0, dtype=np.int64))
     k = DI.shape[1]
     delta = np.zeros(k)
-    if dropped_rows.size and H is not None and (whole := _bordered(H, DI, rhs, rhs2)) is not None:
+    if dropped_rows.size and (whole := _bordered(H, DI, rhs, rhs2)) is not None:
         return FaceSolution(whole[:n], whole[n:], np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     if keep.size == 0:
         return FaceSolution(x, delta, dropped_rows, np.arange(k))

@@ -27,16 +27,10 @@ import numpy as np
 from ..errors import SolverError
 from ..linalg import Factorization, SchurComplement, factorize
 from ..linalg.sparse import same_entries
-from .face import FaceSolution, solve_face
-from .face_factor import FaceFactor
+from .face import solve_face
 from .kkt import TINY, KKTReport, evaluate, length_scale
 from .qp import ContactQP, ContactSolution, check_feasibility
 from .substructure import factorize_contact
-
-#: a face solved by an updated factor whose relative residual (``Workspace._face_residual``) exceeds this is solved
-#: again by a fresh factorisation (measured: ≤ 1e-15 at |I| = 1 189, demo at 281k dofs; a Cholesky solve's backward
-#: error is ~|I|·ε)
-FACE_RESIDUAL_RTOL = 1e-11
 
 
 def default_growth(ws: Workspace) -> float:
@@ -109,8 +103,6 @@ class Workspace:
         self.timings = {"feasibility": 0.0, "factorization": 0.0, "schur": 0.0, "solve": 0.0, "dense": 0.0}
         self.n_solves = 0
         self.dependent_faces = 0  # face solves that dropped dependent rows or columns of D (``face``)
-        #: the last face's Cholesky factor, updated for the next face (``face_factor``)
-        self.face_factor = FaceFactor()
         t = time.perf_counter()
         self.live = check_feasibility(qp)
         self.timings["feasibility"] = time.perf_counter() - t
@@ -321,57 +313,17 @@ class Workspace:
         dropped (x = 0 there, δ = 0 along them). Returns x, δ, and whether the face was singular (also counted
         in ``dependent_faces``, which the solution's info reports)."""
         qp = self.qp
-        with_D = qp.k > 0 and use_D
-        DI, r2, rhs = (qp.D[idx] if with_D else None), (rhs2 if with_D else None), np.asarray(rhs, float)
-        if H is None and shift is None:  # S_II itself: from the last face's factor, updated (``face_factor``)
-            sol = self._factored_face(np.asarray(idx, dtype=np.int64), rhs, DI, r2)
-        else:
-            if H is None:
-                H = self.block(idx)
+        if H is None:
+            H = self.block(idx)
+            if shift is not None:
                 H[np.diag_indices_from(H)] += shift
-            t = time.perf_counter()
-            sol = solve_face(H, rhs, DI, r2)
-            self.timings["dense"] += time.perf_counter() - t
+        t = time.perf_counter()
+        with_D = qp.k > 0 and use_D
+        sol = solve_face(H, np.asarray(rhs, float), qp.D[idx] if with_D else None, rhs2 if with_D else None)
+        self.timings["dense"] += time.perf_counter() - t
         if sol.singular:
             self.dependent_faces += 1
         return sol.x, sol.delta, sol.singular
-
-    def _factored_face(self, idx: np.ndarray, rhs: np.ndarray, DI: np.ndarray | None,
-                       rhs2: np.ndarray | None) -> FaceSolution:
-        """The face S_II x (+ D_I δ) = rhs by the kept factor (``face_factor.FaceFactor``), checked by its residual
-        (refactorised afresh above ``FACE_RESIDUAL_RTOL``); a face with a pivot at round-off by ``solve_face``."""
-        self.ensure(idx)
-        t = time.perf_counter()
-        diagonal = self._store[idx, self._pos[idx]]
-        got = self.face_factor.factor(idx, self._gather, diagonal)
-        sol = None
-        if got is not None:
-            order, L = got
-            sol = solve_face(None, rhs, DI, rhs2, factor=(np.searchsorted(idx, order), L))
-            if self.face_factor.updated and self._face_residual(idx, sol, rhs, DI, diagonal) > FACE_RESIDUAL_RTOL:
-                self.face_factor.clear()
-                got = self.face_factor.factor(idx, self._gather, diagonal)  # afresh (no factor kept)
-                sol = None if got is None else solve_face(None, rhs, DI, rhs2,
-                                                          factor=(np.searchsorted(idx, got[0]), got[1]))
-        if sol is None:
-            sol = solve_face(self.block(idx), rhs, DI, rhs2)
-        self.timings["dense"] += time.perf_counter() - t
-        return sol
-
-    def _gather(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """S[rows][:, cols] from the cached columns (all of ``cols`` computed)."""
-        return self._store[np.ix_(rows, self._pos[cols])]
-
-    def _face_residual(self, idx: np.ndarray, sol: FaceSolution, rhs: np.ndarray, DI: np.ndarray | None,
-                       diagonal: np.ndarray, chunk: int = 1024) -> float:
-        """‖S_II x + D_I δ − rhs‖∞ / (max S_ii ‖x‖₁ + ‖rhs‖∞): a backward-stable solve leaves ~|I|·ε here
-        (S_II gathered by chunks of rows, no |I| × |I| copy)."""
-        r = -rhs if DI is None or sol.delta is None else DI @ sol.delta - rhs
-        pos = self._pos[idx]
-        for s in range(0, idx.size, chunk):
-            r[s : s + chunk] += self._store[np.ix_(idx[s : s + chunk], pos)] @ sol.x
-        scale = float(diagonal.max(initial=0.0)) * float(np.abs(sol.x).sum()) + float(np.abs(rhs).max(initial=0.0))
-        return float(np.abs(r).max(initial=0.0)) / scale if scale > 0.0 else 0.0
 
     def first_contact(self, mask: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Force control: add to ``mask`` the first vertex each loaded punch would touch if it
@@ -425,8 +377,7 @@ class Workspace:
         tim["total"] = time.perf_counter() - self.t0
         tim["n_solves"] = float(self.n_solves)
         tim["schur_columns"] = float(self._ncol)
-        inf = {"gap": rep.gap, "scaled_residuals": rep.scaled, "dependent_faces": self.dependent_faces,
-               "face_factors": {"updated": self.face_factor.updates, "fresh": self.face_factor.fresh}}
+        inf = {"gap": rep.gap, "scaled_residuals": rep.scaled, "dependent_faces": self.dependent_faces}
         inf.update(info or {})
         return ContactSolution(
             U=U,
