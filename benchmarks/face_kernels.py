@@ -14,6 +14,7 @@ Run with one thread (OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1) on a quiet machin
 
 from __future__ import annotations
 
+import hashlib
 import sys
 import time
 from pathlib import Path
@@ -67,8 +68,12 @@ def force(refine: int, method: str) -> None:
 
     t, res = _cpu(solve_case, load_case(CASE, [f"mesh.refine={refine}"]), method=method)
     cs = res.contact.solution
+    act = np.flatnonzero(res.contact.active)
+    tim = cs.timings
     print(f"refine {refine}, {method}: force {res.summary()['contact'][0]['force_magnitude']:.15g} N, "
-          f"{cs.iterations} iterations, {int(res.contact.active.sum())} active, {t:.1f} CPU s")
+          f"{cs.iterations} iterations, {act.size} active (sha1 {hashlib.sha1(act.tobytes()).hexdigest()[:10]}), "
+          f"{t:.1f} CPU s; contact solve {tim['total']:.2f} s wall: dense {tim['dense']:.2f} s, "
+          f"schur {tim['schur']:.2f} s")
 
 
 def border(refine: int, counts: list[int]) -> None:
