@@ -28,9 +28,9 @@ def contact_vertex_arrays(
     vertex is active, 0 if it is only a candidate, −1 if no row; ``contact_pressure`` = the punches'
     ``pressure`` (npunch, nv) summed (``contact.nodal_pressure``; without it the vertex rows' Λ/ω,
     ``op.vertex_pressure``, which zig-zags on a uniform load); ``gap`` = min over the rows of G + BU
-    (NaN where no row) — these from the vertex rows; ``contact_force`` = Σ Λ_i and ``contact_force_vector`` (nv, 3) = Σ Λ_i ∇Z(M_i)
-    over the vertex's rows plus half of each edge-midpoint row on its edges, so that they sum to the
-    punches' forces. On a full cylinder the φ = β copies take the values of their φ = α twins.
+    (NaN where no row) — these from the vertex rows; ``contact_force`` = Σ Λ_i and ``contact_force_vector``
+    (nv, 3) = Σ Λ_i ∇Z(M_i) over the vertex's rows plus half of each edge-midpoint row on its edges, so that
+    they sum to the punches' forces. On a full cylinder the φ = β copies take the values of their φ = α twins.
     """
     nv = int(op.nvertices)
     Lam = np.asarray(Lam, float)
@@ -129,7 +129,8 @@ def friction_vertex_fields(result) -> dict[str, np.ndarray]:
     """Per-vertex friction arrays of a result with friction (empty dict without): ``friction_state`` (−1 no
     row, 0 open, 1 stick, 2 slip: the largest over the vertex's rows), ``friction_traction`` (nv, 3; Pa: Σ T_i τ_i
     / Σ ω_i over the vertex rows, the tangential traction on the shell) and ``friction_slip`` (nv, 3; m: the slip
-    of the shell relative to the punch, σ_i1 τ_i1 + σ_i2 τ_i2, the total of a load path). Vertex rows only; on a full cylinder the φ = β copies take their φ = α twins' values."""
+    of the shell relative to the punch, σ_i1 τ_i1 + σ_i2 τ_i2, the total of a load path). Vertex rows only;
+    on a full cylinder the φ = β copies take their φ = α twins' values."""
     c = getattr(result, "contact", None)
     info = getattr(getattr(c, "solution", None), "info", None) or {}
     top = info.get("tangential")

@@ -5,7 +5,8 @@ line load), a pressure inside, point forces where a zone is a point. The figures
 is — the line force as a line along the rim, coloured by its value in N/m (``contact.<k>.rim.samples``), with the
 rim's mean or the line load in the title, the same numbers as summary.json, and each point force as a marker
 labelled with its force — and show the nodal pressure (contact/nodal_pressure.py: uniform on a uniform load,
-converging where the pressure is a function), which at a line or point force grows like 1/h: labelled so. Several punches: one panel each, each with its own colour scales.
+converging where the pressure is a function), which at a line or point force grows like 1/h: labelled so.
+Several punches: one panel each, each with its own colour scales.
 """
 
 from __future__ import annotations
