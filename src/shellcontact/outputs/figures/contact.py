@@ -173,7 +173,7 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
         peak = peaks[k] if k < len(peaks) else (float(mine.max()) if mine.size else 0.0)
         who = f"punch {k}: " if per_punch else ""
         headline = _rim_headline(result, rim) or "contact pressure at the vertices"
-        ax.set_title(f"{who}{headline}\npeak nodal pressure {_q(result, peak, 'pressure')} (mesh-dependent at a rim)",
+        ax.set_title(f"{who}{headline}\npeak nodal pressure {_q(result, peak, 'pressure')} (∝ 1/h at a line force)",
                      fontsize=9)
         _map_axes(ax, result)
     return _finish(fig, path)
