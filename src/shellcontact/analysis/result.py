@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..contact.nodal_pressure import nodal_pressure
+from ..contact.nodal_pressure import nodal_pressure, on_vertices, unit_pressure_loads
 from ..contact.operator import ContactOperator
 from ..contact.punches import Punch
 from ..errors import SolverError
@@ -76,12 +76,22 @@ class ContactResult:
         return self.operator.pressure(self.Lambda)
 
     @functools.cached_property
+    def unit_loads(self) -> np.ndarray | None:
+        """(npunch, nv): the load of a unit pressure on each vertex's value dof (``unit_pressure_loads``), None
+        without the space."""
+        return None if self.space is None else unit_pressure_loads(self.space, self.operator)
+
+    def on_vertices(self, values: np.ndarray) -> np.ndarray:
+        """Row values (m, …) as loads on the vertices' value dofs, per punch (``contact.nodal_pressure``)."""
+        return on_vertices(self.operator, values)
+
+    @functools.cached_property
     def nodal_pressure(self) -> np.ndarray | None:
         """(npunch, nv): each punch's pressure at the mesh vertices (``contact.nodal_pressure``), None without
         the space."""
         if self.space is None:
             return None
-        return nodal_pressure(self.space, self.operator, self.Lambda)
+        return nodal_pressure(self.space, self.operator, self.Lambda, self.unit_loads)
 
     def summary(self) -> list[dict]:
         out = self.operator.summary(self.Lambda, self.active, self.delta)

@@ -58,22 +58,28 @@ def unit_pressure_loads(space: ShellSpace, op: ContactOperator) -> np.ndarray:
     return out
 
 
-def dof_forces(op: ContactOperator, Lam: np.ndarray) -> np.ndarray:
-    """F (npunch, nv): per punch, Σᵢ Λᵢ|∇Zᵢ| N_v(aᵢ): a vertex row's force at its vertex, half of an edge-midpoint
-    row's at each end of its edge (on a full cylinder on the φ = α twins, where the vertex rows are)."""
-    f = np.asarray(Lam, float) * np.linalg.norm(op.grad, axis=0)
-    out = np.zeros((len(op.punches), int(op.nvertices)))
+def on_vertices(op: ContactOperator, values: np.ndarray) -> np.ndarray:
+    """Row values (m, …) as loads on the vertices' value dofs, (npunch, nv, …): Σᵢ valuesᵢ N_v(aᵢ) per punch, a
+    vertex row's at its vertex, half of an edge-midpoint row's at each end of its edge (on a full cylinder on the
+    φ = α twins, where the vertex rows are)."""
+    values = np.asarray(values, float)
+    out = np.zeros((len(op.punches), int(op.nvertices), *values.shape[1:]))
     at_vertex = op.vertex >= 0
-    np.add.at(out, (op.punch[at_vertex], op.vertex[at_vertex]), f[at_vertex])
+    np.add.at(out, (op.punch[at_vertex], op.vertex[at_vertex]), values[at_vertex])
     mid = np.nonzero(~at_vertex)[0]
     if mid.size:
         for end in op.ends[:, mid]:
-            np.add.at(out, (op.punch[mid], end), 0.5 * f[mid])
-    if op.twins is not None:  # an edge next to the seam ends on a φ = β copy: its force goes to the twin
+            np.add.at(out, (op.punch[mid], end), 0.5 * values[mid])
+    if op.twins is not None:  # an edge next to the seam ends on a φ = β copy: its share goes to the twin
         slave, master = op.twins
         out[:, master] += out[:, slave]
         out[:, slave] = 0.0
     return out
+
+
+def dof_forces(op: ContactOperator, Lam: np.ndarray) -> np.ndarray:
+    """F (npunch, nv): per punch, Σᵢ Λᵢ|∇Zᵢ| N_v(aᵢ), the contact force on each vertex's value dof."""
+    return on_vertices(op, np.asarray(Lam, float) * np.linalg.norm(op.grad, axis=0))
 
 
 def nodal_pressure(space: ShellSpace, op: ContactOperator, Lam: np.ndarray,

@@ -127,10 +127,12 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
 
 def friction_vertex_fields(result) -> dict[str, np.ndarray]:
     """Per-vertex friction arrays of a result with friction (empty dict without): ``friction_state`` (−1 no
-    row, 0 open, 1 stick, 2 slip: the largest over the vertex's rows), ``friction_traction`` (nv, 3; Pa: Σ T_i τ_i
-    / Σ ω_i over the vertex rows, the tangential traction on the shell) and ``friction_slip`` (nv, 3; m: the slip
-    of the shell relative to the punch, σ_i1 τ_i1 + σ_i2 τ_i2, the total of a load path). Vertex rows only;
-    on a full cylinder the φ = β copies take their φ = α twins' values."""
+    row, 0 open, 1 stick, 2 slip: the largest over the rows on the vertex's value dof, its own and its edges'
+    midpoints), ``friction_traction`` (nv, 3; Pa: the
+    tangential traction on the shell, the rows' forces T_i τ_i on the vertex's value dof over a unit pressure's, as
+    ``contact_pressure``: |traction| = μ × contact_pressure where all of it slips one way) and ``friction_slip``
+    (nv, 3; m: the slip of the shell relative to the punch, σ_i1 τ_i1 + σ_i2 τ_i2, the total of a load path;
+    vertex rows only). On a full cylinder the φ = β copies take their φ = α twins' values."""
     c = getattr(result, "contact", None)
     info = getattr(getattr(c, "solution", None), "info", None) or {}
     top = info.get("tangential")
@@ -141,14 +143,26 @@ def friction_vertex_fields(result) -> dict[str, np.ndarray]:
     r = np.nonzero(np.asarray(op.vertex) >= 0)[0]
     v = np.asarray(op.vertex)[r]
     state = np.full(nv, -1, dtype=np.int64)
-    np.maximum.at(state, v, top.states(info["T"], info["bounds"], c.Lambda)[r])
-    force, slip, wsum = np.zeros((nv, 3)), np.zeros((nv, 3)), np.zeros(nv)
-    np.add.at(force, v, top.vectors(info["T"])[:, r].T)
+    states = top.states(info["T"], info["bounds"], c.Lambda)
+    np.maximum.at(state, v, states[r])
+    mid = np.nonzero(np.asarray(op.vertex) < 0)[0] if getattr(op, "ends", None) is not None else np.zeros(0, int)
+    for end in (op.ends[:, mid] if mid.size else ()):  # a midpoint row acts on both ends' value dofs (traction)
+        np.maximum.at(state, end, states[mid])
+    if op.twins is not None:
+        state[op.twins[1]] = np.maximum(state[op.twins[1]], state[op.twins[0]])
+    slip = np.zeros((nv, 3))
     np.add.at(slip, v, top.vectors(info["slip"])[:, r].T)
-    np.add.at(wsum, v, np.asarray(op.weights)[r])
     count = np.bincount(v, minlength=nv)
+    loads, spread = getattr(c, "unit_loads", None), getattr(c, "on_vertices", None)
+    if loads is None or spread is None:  # without the space: the vertex rows' weights (Σ ω_i)
+        loads = np.zeros((1, nv))
+        np.add.at(loads[0], v, np.asarray(op.weights)[r])
+        force = np.zeros((1, nv, 3))
+        np.add.at(force[0], v, top.vectors(info["T"])[:, r].T)
+    else:  # the tangential forces on the value dofs over a unit pressure's, as contact_pressure
+        force = spread(top.vectors(info["T"]).T)
     with np.errstate(divide="ignore", invalid="ignore"):
-        traction = np.where(wsum[:, None] > 0, force / np.where(wsum > 0, wsum, 1.0)[:, None], 0.0)
+        traction = np.where(loads[:, :, None] > 0, force / np.where(loads > 0, loads, 1.0)[:, :, None], 0.0).sum(0)
         slip = np.where(count[:, None] > 0, slip / np.maximum(count, 1)[:, None], 0.0)
     out = {"friction_state": state, "friction_traction": traction, "friction_slip": slip}
     twins = getattr(op, "twins", None)
