@@ -127,10 +127,9 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
 
 def friction_vertex_fields(result) -> dict[str, np.ndarray]:
     """Per-vertex friction arrays of a result with friction (empty dict without): ``friction_state`` (−1 no
-    row, 0 open, 1 stick, 2 slip: the largest over the rows on the vertex's value dof, its own and its edges'
-    midpoints), ``friction_traction`` (nv, 3; Pa: the
+    row, 0 open, 1 stick, 2 slip: the largest over the vertex's rows), ``friction_traction`` (nv, 3; Pa: the
     tangential traction on the shell, the rows' forces T_i τ_i on the vertex's value dof over a unit pressure's, as
-    ``contact_pressure``: |traction| = μ × contact_pressure where all of it slips one way) and ``friction_slip``
+    ``contact_pressure``: |traction| ≤ μ × contact_pressure, = where all of it slips one way) and ``friction_slip``
     (nv, 3; m: the slip of the shell relative to the punch, σ_i1 τ_i1 + σ_i2 τ_i2, the total of a load path;
     vertex rows only). On a full cylinder the φ = β copies take their φ = α twins' values."""
     c = getattr(result, "contact", None)
@@ -143,13 +142,7 @@ def friction_vertex_fields(result) -> dict[str, np.ndarray]:
     r = np.nonzero(np.asarray(op.vertex) >= 0)[0]
     v = np.asarray(op.vertex)[r]
     state = np.full(nv, -1, dtype=np.int64)
-    states = top.states(info["T"], info["bounds"], c.Lambda)
-    np.maximum.at(state, v, states[r])
-    mid = np.nonzero(np.asarray(op.vertex) < 0)[0] if getattr(op, "ends", None) is not None else np.zeros(0, int)
-    for end in (op.ends[:, mid] if mid.size else ()):  # a midpoint row acts on both ends' value dofs (traction)
-        np.maximum.at(state, end, states[mid])
-    if op.twins is not None:
-        state[op.twins[1]] = np.maximum(state[op.twins[1]], state[op.twins[0]])
+    np.maximum.at(state, v, top.states(info["T"], info["bounds"], c.Lambda)[r])
     slip = np.zeros((nv, 3))
     np.add.at(slip, v, top.vectors(info["slip"])[:, r].T)
     count = np.bincount(v, minlength=nv)
