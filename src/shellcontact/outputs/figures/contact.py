@@ -279,10 +279,33 @@ def plot_pressure_profiles(
     for k, (label, (c, p)) in enumerate(lines.items()):
         ax = fig.add_subplot(1, n, n - len(lines) + k + 1)
         ax.plot(*_broken(c, p), "o-", ms=3)
+        ax.set_ylim(bottom=0.0)  # from zero: a rim's alternation (its triangles' pattern) read against its size
         ax.set_xlabel("φ [deg]" if label.startswith("x") else f"x{_unit(result, 'length')}")
         ax.set_ylabel(f"nodal pressure (∝ 1/h at a rim){_unit(result, 'pressure')}")
         ax.xaxis.set_major_locator(MaxNLocator(6))
-        ax.set_title(f"along {with_unit(label, 'length', result.case.units) if label.startswith('x') else label}",
-                     fontsize=10)
+        where = with_unit(label, 'length', result.case.units) if label.startswith('x') else label
+        rim_note = "\non a rim: a line force per element width" if _along_a_rim(result, label) else ""
+        ax.set_title(f"along {where}{rim_note}", fontsize=10)
         ax.grid(True, alpha=0.3)
     return _finish(fig, path)
+
+
+def _along_a_rim(result, label: str) -> bool:
+    """Whether the profile's mesh line (``pressure_lines``' label "x = …" or "φ = …°") runs along a rim: half or
+    more of the samples of one of a punch's rim lines lie within half an element of it. There the nodal pressure
+    is a line force over the area the line's vertices share with the zone, which alternates with the triangles'
+    pattern."""
+    xv, s = result.solution.space.mesh.p
+    a = result.solution.shell.radius
+    along_x = label.startswith("x")
+    value = float(label.split("=")[1].strip().rstrip("°"))
+    coords = xv if along_x else np.degrees(s / a)
+    others = np.abs(coords - value)
+    tol = 0.5 * float(others[others > 1e-9 * max(float(np.ptp(coords)), 1e-300)].min(initial=np.inf))
+    for rim in _rims(result):
+        samples = (rim or {}).get("samples") or []
+        line = np.array([q.get("line", 0) for q in samples])
+        near = np.abs(np.array([q["x"] if along_x else q["phi"] for q in samples]) - value) <= tol
+        if any(np.mean(near[line == i]) >= 0.5 for i in np.unique(line)):
+            return True
+    return False
