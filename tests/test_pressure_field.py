@@ -94,3 +94,23 @@ def test_unit_pressure_loads_sum_to_the_zone_area():
             assert L[k].sum() == pytest.approx(area, rel=1e-12)
             rows = op.rows(k)
             assert np.all(L[k][op.vertex[rows][op.vertex[rows] >= 0]] > 0.0)
+
+
+def test_profile_through_the_band_is_flat_and_a_rim_line_says_so(sleeve):
+    """pressure_profiles.png's data: along φ = 0.5° through the sleeve's band the profile is the oracle's pressure at
+    every vertex (what the figure draws; it alternated 2.13 / 3.79 before). On the band clamp the profile through
+    the peak runs along the band's edge ring, x = −0.015 m, where the nodal value is a ring force per element width
+    (alternating 1.77e8 / 1.09e8 Pa with the mesh's diagonals): its title says so, the profile across does not."""
+    from shellcontact import load_case
+    from shellcontact.outputs.figures.contact import plot_pressure_profiles, pressure_lines
+
+    ref, levels = sleeve
+    for res in levels:
+        coords, p = pressure_lines(res, phi=0.5)["φ = 0.5°"]
+        band = coords <= BAND
+        assert band.sum() >= 10 and np.abs(p[band] / ref.band_pressure - 1.0).max() < 1e-4
+    root = __import__("pathlib").Path(__file__).resolve().parents[1] / "examples"
+    clamp = shellcontact.solve(load_case(root / "band_clamp.toml"))
+    titles = [ax.get_title() for ax in plot_pressure_profiles(clamp).axes if ax.get_title().startswith("along")]
+    assert titles[0].startswith("along x = -0.015") and "on a rim" in titles[0]
+    assert "on a rim" not in titles[1]
