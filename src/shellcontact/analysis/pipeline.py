@@ -326,7 +326,7 @@ def contact_result(case: Case, d: Discretization, opts: SolverOptions, timer: Ti
                                 outside=penetration_outside(space, punches, U, delta),
                                 between=_penetration_between(space, punches, opts.contact_points, U, delta,
                                                              d.shared, op),
-                                derive=derive)
+                                derive=derive, space=space)
         if not lazy:
             contact.zone  # noqa: B018 — made now, inside the post-processing stage
         sol = ShellSolution(space=space, U=U, A=A, F=F, extra_forces=op.B.T @ Lam, rigid=rigid)

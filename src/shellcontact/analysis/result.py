@@ -12,12 +12,14 @@ from typing import Any
 
 import numpy as np
 
+from ..contact.nodal_pressure import nodal_pressure, on_vertices, unit_pressure_loads
 from ..contact.operator import ContactOperator
 from ..contact.punches import Punch
 from ..errors import SolverError
 from ..linalg.mpi import parallel_summary
 from ..outputs.results import ShellSolution
 from ..problem.case import Case
+from ..shell.spaces import ShellSpace
 from ..shell.supports import edge_constrained_dofs
 from ..solvers import ContactSolution
 from ..units import summary_units, with_unit
@@ -45,6 +47,7 @@ class ContactResult:
     #: () → (zone, rim, rim_lines): computed when first read (``zone``, ``rim``, ``rim_lines``)
     derive: Callable[[], tuple[list, list, list]] | None = field(default=None, repr=False)
     friction: list[dict] | None = None  # per punch, with friction (analysis.friction.attach_friction)
+    space: ShellSpace | None = field(default=None, repr=False)  # for the nodal pressure
     _derived: tuple[list, list, list] | None = field(default=None, init=False, repr=False)
 
     def _post(self) -> tuple[list, list, list]:
@@ -69,10 +72,32 @@ class ContactResult:
 
     @property
     def pressure(self) -> np.ndarray:
+        """Per row Λᵢ/ωᵢ (not a pressure on a uniform load: ``nodal_pressure`` is)."""
         return self.operator.pressure(self.Lambda)
+
+    @functools.cached_property
+    def unit_loads(self) -> np.ndarray | None:
+        """(npunch, nv): the load of a unit pressure on each vertex's value dof (``unit_pressure_loads``), None
+        without the space."""
+        return None if self.space is None else unit_pressure_loads(self.space, self.operator)
+
+    def on_vertices(self, values: np.ndarray) -> np.ndarray:
+        """Row values (m, …) as loads on the vertices' value dofs, per punch (``contact.nodal_pressure``)."""
+        return on_vertices(self.operator, values)
+
+    @functools.cached_property
+    def nodal_pressure(self) -> np.ndarray | None:
+        """(npunch, nv): each punch's pressure at the mesh vertices (``contact.nodal_pressure``), None without
+        the space."""
+        if self.space is None:
+            return None
+        return nodal_pressure(self.space, self.operator, self.Lambda, self.unit_loads)
 
     def summary(self) -> list[dict]:
         out = self.operator.summary(self.Lambda, self.active, self.delta)
+        if self.nodal_pressure is not None:  # the peak of the map's field, not of the rows' Λ/ω
+            for entry, p in zip(out, self.nodal_pressure):
+                entry["peak_pressure"] = float(p.max(initial=0.0))
         rims = self.rim or [None] * len(out)
         for entry, pen, mid, zone, rim in zip(out, self.outside, self.between, self.zone, rims):
             entry["penetration_outside_zone"] = float(pen)

@@ -19,16 +19,18 @@ FRICTION_STATES = {-1: "no contact row", 0: "open", 1: "stick", 2: "slip"}
 
 
 def contact_vertex_arrays(
-    op, Lam: np.ndarray, active: np.ndarray | None = None, gap: np.ndarray | None = None
+    op, Lam: np.ndarray, active: np.ndarray | None = None, gap: np.ndarray | None = None,
+    pressure: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Per-vertex contact arrays from a ``contact.ContactOperator`` and the row values of a solve.
 
     Rows of all punches are gathered on their mesh vertex: ``contact_status`` 1 if any row at the
-    vertex is active, 0 if it is only a candidate, −1 if no row; ``contact_pressure`` =
-    ``op.vertex_pressure(Lam)``; ``gap`` = min over the rows of G + BU (NaN where no row) — these
-    from the vertex rows; ``contact_force`` = Σ Λ_i and ``contact_force_vector`` (nv, 3) = Σ Λ_i ∇Z(M_i)
-    over the vertex's rows plus half of each edge-midpoint row on its edges, so that they sum to the
-    punches' forces. On a full cylinder the φ = β copies take the values of their φ = α twins.
+    vertex is active, 0 if it is only a candidate, −1 if no row; ``contact_pressure`` = the punches'
+    ``pressure`` (npunch, nv) summed (``contact.nodal_pressure``; without it the vertex rows' Λ/ω,
+    ``op.vertex_pressure``, which zig-zags on a uniform load); ``gap`` = min over the rows of G + BU
+    (NaN where no row) — these from the vertex rows; ``contact_force`` = Σ Λ_i and ``contact_force_vector``
+    (nv, 3) = Σ Λ_i ∇Z(M_i) over the vertex's rows plus half of each edge-midpoint row on its edges, so that
+    they sum to the punches' forces. On a full cylinder the φ = β copies take the values of their φ = α twins.
     """
     nv = int(op.nvertices)
     Lam = np.asarray(Lam, float)
@@ -48,7 +50,8 @@ def contact_vertex_arrays(
         np.add.at(fvec, end, 0.5 * (np.asarray(op.grad)[:, mid] * Lam[mid]).T)
     out = {
         "contact_status": status,
-        "contact_pressure": np.asarray(op.vertex_pressure(Lam), float),
+        "contact_pressure": (np.asarray(op.vertex_pressure(Lam), float) if pressure is None
+                             else np.asarray(pressure, float).sum(axis=0)),
         "contact_force": force,
         "contact_force_vector": fvec,
     }
@@ -70,11 +73,11 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
 
     Contract (docs/outputs.md): ``result.contact.vertex_fields()`` returns arrays of length
     nv (mesh vertices) named in CONTACT_FIELDS — ``contact_status`` (1 active, 0 inactive
-    candidate, −1 not a candidate), ``contact_pressure`` (Λ_i/ω_i, 0 off contact), ``gap``
+    candidate, −1 not a candidate), ``contact_pressure`` (Pa, the nodal pressure, 0 off contact), ``gap``
     (G + BU, NaN off the candidate set), ``contact_force`` (nodal Λ_i), optionally
-    ``contact_force_vector`` (nv, 3). ``contact_vertex_arrays(op, Lam, active, gap)`` builds exactly
+    ``contact_force_vector`` (nv, 3). ``contact_vertex_arrays(op, Lam, active, gap, pressure)`` builds exactly
     these from a ContactOperator; it is used directly when the object has ``operator`` and
-    ``Lambda`` (and optionally ``active``, ``gap``) attributes. Otherwise,
+    ``Lambda`` (and optionally ``active``, ``gap``, ``nodal_pressure``) attributes. Otherwise,
     attributes ``status``/``active``, ``pressure``, ``gap``, ``forces``/``Lambda`` are used, scattered
     to all vertices through ``vertices`` (candidate vertex indices) when they are shorter than nv.
     Missing fields are skipped, never invented.
@@ -88,7 +91,8 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
     elif getattr(c, "operator", None) is not None and getattr(c, "Lambda", None) is not None:
         gap = getattr(c, "gap", None)
         gap = gap() if callable(gap) else gap
-        return contact_vertex_arrays(c.operator, c.Lambda, getattr(c, "active", None), gap)
+        return contact_vertex_arrays(c.operator, c.Lambda, getattr(c, "active", None), gap,
+                                     getattr(c, "nodal_pressure", None))
     else:
         raw = {}
         for name, attrs in (
@@ -123,10 +127,11 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
 
 def friction_vertex_fields(result) -> dict[str, np.ndarray]:
     """Per-vertex friction arrays of a result with friction (empty dict without): ``friction_state`` (−1 no
-    row, 0 open, 1 stick, 2 slip: the largest over the vertex's rows), ``friction_traction`` (nv, 3; Pa: Σ T_i τ_i
-    / Σ ω_i over the vertex rows, the tangential traction on the shell) and ``friction_slip`` (nv, 3; m: the slip
-    of the shell relative to the punch, σ_i1 τ_i1 + σ_i2 τ_i2, the total of a load path). Vertex rows only, as
-    ``contact_pressure``; on a full cylinder the φ = β copies take their φ = α twins' values."""
+    row, 0 open, 1 stick, 2 slip: the largest over the vertex's rows), ``friction_traction`` (nv, 3; Pa: the
+    tangential traction on the shell, the rows' forces T_i τ_i on the vertex's value dof over a unit pressure's, as
+    ``contact_pressure``: |traction| ≤ μ × contact_pressure, = where all of it slips one way) and ``friction_slip``
+    (nv, 3; m: the slip of the shell relative to the punch, σ_i1 τ_i1 + σ_i2 τ_i2, the total of a load path;
+    vertex rows only). On a full cylinder the φ = β copies take their φ = α twins' values."""
     c = getattr(result, "contact", None)
     info = getattr(getattr(c, "solution", None), "info", None) or {}
     top = info.get("tangential")
@@ -138,13 +143,19 @@ def friction_vertex_fields(result) -> dict[str, np.ndarray]:
     v = np.asarray(op.vertex)[r]
     state = np.full(nv, -1, dtype=np.int64)
     np.maximum.at(state, v, top.states(info["T"], info["bounds"], c.Lambda)[r])
-    force, slip, wsum = np.zeros((nv, 3)), np.zeros((nv, 3)), np.zeros(nv)
-    np.add.at(force, v, top.vectors(info["T"])[:, r].T)
+    slip = np.zeros((nv, 3))
     np.add.at(slip, v, top.vectors(info["slip"])[:, r].T)
-    np.add.at(wsum, v, np.asarray(op.weights)[r])
     count = np.bincount(v, minlength=nv)
+    loads, spread = getattr(c, "unit_loads", None), getattr(c, "on_vertices", None)
+    if loads is None or spread is None:  # without the space: the vertex rows' weights (Σ ω_i)
+        loads = np.zeros((1, nv))
+        np.add.at(loads[0], v, np.asarray(op.weights)[r])
+        force = np.zeros((1, nv, 3))
+        np.add.at(force[0], v, top.vectors(info["T"])[:, r].T)
+    else:  # the tangential forces on the value dofs over a unit pressure's, as contact_pressure
+        force = spread(top.vectors(info["T"]).T)
     with np.errstate(divide="ignore", invalid="ignore"):
-        traction = np.where(wsum[:, None] > 0, force / np.where(wsum > 0, wsum, 1.0)[:, None], 0.0)
+        traction = np.where(loads[:, :, None] > 0, force / np.where(loads > 0, loads, 1.0)[:, :, None], 0.0).sum(0)
         slip = np.where(count[:, None] > 0, slip / np.maximum(count, 1)[:, None], 0.0)
     out = {"friction_state": state, "friction_traction": traction, "friction_slip": slip}
     twins = getattr(op, "twins", None)

@@ -304,7 +304,7 @@ def _headline(s: Mapping[str, Any]) -> str:
                                 "are scattered): refine to resolve it; " + note)
                     rows.append([f"{who}{name}", rim["interior_pressure"], u("pressure"), note])
         rows.append([f"{who}peak nodal pressure (mesh-dependent)", c["peak_pressure"], u("pressure"),
-                     "nodal Λ/ω, not a converging quantity: grows like 1/h at a line force"])
+                     "the map's nodal pressure: exact on a uniform load, but grows like 1/h at a line force"])
     rows.append(["max deflection |w|", s["max_abs_w"], u("length"), ""])
     st = s.get("stresses") or {}
     if st:

@@ -4,8 +4,9 @@ For a Kirchhoff shell the contact force is a measure (docs/theory.md §9): line 
 line load), a pressure inside, point forces where a zone is a point. The figures draw what converges as what it
 is — the line force as a line along the rim, coloured by its value in N/m (``contact.<k>.rim.samples``), with the
 rim's mean or the line load in the title, the same numbers as summary.json, and each point force as a marker
-labelled with its force — and show the nodal pressure Λ/ω, which does not converge at a line
-force, labelled as mesh-dependent. Several punches: one panel each, each with its own colour scales.
+labelled with its force — and show the nodal pressure (contact/nodal_pressure.py: uniform on a uniform load,
+converging where the pressure is a function), which at a line or point force grows like 1/h: labelled so.
+Several punches: one panel each, each with its own colour scales.
 """
 
 from __future__ import annotations
@@ -69,13 +70,10 @@ def _rims(result) -> list[dict | None]:
 
 
 def _peak_pressures(result) -> list[float]:
-    """Per punch, the summary's ``peak_pressure`` (the largest Λ/ω over every constraint point, vertices and edge
-    midpoints), so that the title says what the report's table says; [] without a contact operator."""
-    c = getattr(result, "contact", None)
-    try:
-        return [e["peak_pressure"] for e in c.operator.summary(c.Lambda, c.active, c.delta)]
-    except Exception:  # a contact object without an operator
-        return []
+    """Per punch, the summary's ``peak_pressure`` (the largest of its nodal pressure), so that the title says what
+    the report's table says; [] without the nodal pressure."""
+    pressure = getattr(getattr(result, "contact", None), "nodal_pressure", None)
+    return [] if pressure is None else [float(p.max(initial=0.0)) for p in pressure]
 
 
 def _rim_headline(result, rim: dict | None) -> str:
@@ -135,7 +133,7 @@ def _draw_point_forces(ax, result, rim: dict | None) -> None:
 
 def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
     """The contact force per punch (None without contact): the line force along the rim (or the line load) as a
-    coloured line, over the nodal pressure Λ/ω (mesh-dependent) of the candidate zone; one panel per punch,
+    coloured line, over the nodal pressure of the candidate zone (mesh-dependent at the rim); one panel per punch,
     each zoomed to its own zone with its own colour scales."""
     fields = contact_vertex_fields(result)
     p = fields.get("contact_pressure")
@@ -157,9 +155,9 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
         own = {**fields, "contact_status": status} if status is not None else fields
         mine = p[np.asarray(status) >= 0] if per_punch else p
         rim = rims[k] if k < len(rims) else None
-        if not (rim and rim.get("kind") == "line"):  # a line contact has no pressure: no beads of Λ/ω
+        if not (rim and rim.get("kind") == "line"):  # a line contact has no pressure: its line load is the line
             cs = ax.tricontourf(tri, p, levels=_levels(mine if mine.size else p, 0.0), cmap="Greys")
-            fig.colorbar(cs, ax=ax, label=f"nodal pressure Λ/ω, mesh-dependent{_unit(result, 'pressure')}",
+            fig.colorbar(cs, ax=ax, label=f"nodal pressure (∝ 1/h at the rim){_unit(result, 'pressure')}",
                          ticks=MaxNLocator(6), pad=0.02)
         lines = rim_lines[k] if k < len(rim_lines) else []
         if not _draw_line_force(ax, fig, result, rim, lines) and _contact_outline(ax, result, own):
@@ -171,11 +169,12 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
         xr, pr = _contact_box(own, x, phi, h, math.degrees(h / sol.shell.radius))
         ax.set_xlim(*xr)
         ax.set_ylim(*pr)
-        peaks = _peak_pressures(result)  # the map shows the vertices; the peak may be at an edge midpoint
+        peaks = _peak_pressures(result)
         peak = peaks[k] if k < len(peaks) else (float(mine.max()) if mine.size else 0.0)
         who = f"punch {k}: " if per_punch else ""
         headline = _rim_headline(result, rim) or "contact pressure at the vertices"
-        ax.set_title(f"{who}{headline}\nnodal peak Λ/ω {_q(result, peak, 'pressure')} (mesh-dependent)", fontsize=9)
+        ax.set_title(f"{who}{headline}\npeak nodal pressure {_q(result, peak, 'pressure')} (∝ 1/h at a line force)",
+                     fontsize=9)
         _map_axes(ax, result)
     return _finish(fig, path)
 
@@ -257,7 +256,7 @@ def plot_pressure_profiles(
         return None
     rims = [(k, r) for k, r in enumerate(_rims(result)) if r and r.get("samples")]
     if rims and all(r.get("kind") == "line" for _, r in rims):
-        lines = {}  # line contacts only: the nodal Λ/ω would zig-zag between vertex and midpoint weights
+        lines = {}  # line contacts only: a line load has no pressure (its nodal value is a force per h)
     n = len(lines) + (1 if rims else 0)
     fig = Figure(figsize=(5.0 * n, 4), layout="constrained")
     if rims:
@@ -280,10 +279,34 @@ def plot_pressure_profiles(
     for k, (label, (c, p)) in enumerate(lines.items()):
         ax = fig.add_subplot(1, n, n - len(lines) + k + 1)
         ax.plot(*_broken(c, p), "o-", ms=3)
+        ax.set_ylim(bottom=0.0)  # from zero: a rim's alternation (its triangles' pattern) read against its size
         ax.set_xlabel("φ [deg]" if label.startswith("x") else f"x{_unit(result, 'length')}")
-        ax.set_ylabel(f"nodal pressure Λ/ω, mesh-dependent{_unit(result, 'pressure')}")
+        ax.set_ylabel(f"nodal pressure (∝ 1/h at a rim){_unit(result, 'pressure')}")
         ax.xaxis.set_major_locator(MaxNLocator(6))
-        ax.set_title(f"along {with_unit(label, 'length', result.case.units) if label.startswith('x') else label}",
-                     fontsize=10)
+        where = with_unit(label, 'length', result.case.units) if label.startswith('x') else label
+        rim_note = "\non a rim: a line force per element width" if _along_a_rim(result, label) else ""
+        ax.set_title(f"along {where}{rim_note}", fontsize=10)
         ax.grid(True, alpha=0.3)
     return _finish(fig, path)
+
+
+def _along_a_rim(result, label: str) -> bool:
+    """Whether the profile's mesh line (``pressure_lines``' label "x = …" or "φ = …°") runs along a rim: the
+    samples of one of a punch's rim lines lie within half an element of it (four in five of them; a line across
+    the profile has its samples spread, at most the one where it crosses near). There the nodal pressure
+    is a line force over the area the line's vertices share with the zone, which alternates with the triangles'
+    pattern."""
+    xv, s = result.solution.space.mesh.p
+    a = result.solution.shell.radius
+    along_x = label.startswith("x")
+    value = float(label.split("=")[1].strip().rstrip("°"))
+    coords = xv if along_x else np.degrees(s / a)
+    others = np.abs(coords - value)
+    tol = 0.5 * float(others[others > 1e-9 * max(float(np.ptp(coords)), 1e-300)].min(initial=np.inf))
+    for rim in _rims(result):
+        samples = (rim or {}).get("samples") or []
+        line = np.array([q.get("line", 0) for q in samples])
+        near = np.abs(np.array([q["x"] if along_x else q["phi"] for q in samples]) - value) <= tol
+        if any(np.mean(near[line == i]) >= 0.8 for i in np.unique(line)):
+            return True
+    return False

@@ -14,6 +14,9 @@ from .common import _finish, _map_axes, _q, _vertex_map
 
 #: the colours of the friction states (fields.FRICTION_STATES)
 STATE_STYLE = {0: ("open", "0.75", 6), 1: ("stick", "tab:blue", 16), 2: ("slip", "tab:red", 16)}
+ARROW = 0.06  # the largest traction's arrow: this share of the panel's width
+MARGIN = 0.12  # beyond the points on each side (× their extent): an arrow at the edge stays inside
+KEY_BAND = 0.22  # below the points (× their extent): the arrows' key and the legend, clear of the points
 
 
 def plot_friction(result, path: str | Path | None = None) -> Figure | None:
@@ -53,14 +56,15 @@ def plot_friction(result, path: str | Path | None = None) -> Figure | None:
             ref = float(mag[moving].max())
             u, v = t1[moving], t2[moving] * deg  # the direction on the map; the length the traction's magnitude
             norm = np.maximum(np.hypot(u, v), 1e-300) / mag[moving]
-            q = ax.quiver(x[moving], phi[moving], u / norm, v / norm, angles="xy", zorder=3, color="k", width=0.003)
-            ax.quiverkey(q, 0.16, 0.06, ref, f"tangential traction {_q(result, ref, 'pressure')}", labelpos="E",
+            q = ax.quiver(x[moving], phi[moving], u / norm, v / norm, angles="xy", zorder=3, color="k", width=0.003,
+                          scale_units="width", scale=ref / ARROW)
+            ax.quiverkey(q, 0.06, 0.05, ref, f"tangential traction {_q(result, ref, 'pressure')}", labelpos="E",
                          coordinates="axes", fontproperties={"size": 8})
-        if mine.any():
+        if mine.any():  # margins that hold the longest arrow, and a band below the points for the key and legend
             dx = max(float(np.ptp(x[mine])), 1e-12)
             dp = max(float(np.ptp(phi[mine])), 1e-9)
-            ax.set_xlim(x[mine].min() - 0.08 * dx, x[mine].max() + 0.08 * dx)
-            ax.set_ylim(phi[mine].min() - 0.08 * dp, phi[mine].max() + 0.08 * dp)
+            ax.set_xlim(x[mine].min() - MARGIN * dx, x[mine].max() + MARGIN * dx)
+            ax.set_ylim(phi[mine].min() - KEY_BAND * dp, phi[mine].max() + MARGIN * dp)
         ax.legend(loc="lower right", fontsize=8)
         title = f"punch {k}: friction on the shell"
         if k < len(entries):
