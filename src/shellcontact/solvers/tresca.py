@@ -20,6 +20,7 @@ N), ``slip`` (σ = C U − c, m) and ``bounds`` (g).
 
 from __future__ import annotations
 
+import copy
 import time
 
 import numpy as np
@@ -290,9 +291,10 @@ def solve_tresca_penalty(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.nda
         # where Newton's model of the slip holds; from U = 0 every point starts sliding by the whole slide and
         # Newton crawls: 40 steps without converging on the paper panel)
         closed = qp.G < 0
-        if k:  # the frictionless penalty solution's penetrating rows
-            free = solve_penalty(qp, epsilon, tol=tol)
-            closed = qp.gap(free.U, free.delta) < 0
+        if k:  # the frictionless penalty solution's penetrating rows (without the δ no gap sees: 0 there)
+            qp0, keep = normal_part(qp)
+            free = solve_penalty(qp0, epsilon, tol=tol)
+            closed = qp0.gap(free.U, free.delta) < 0
         Bn = B[closed]
         K = A + Bn.T @ sp.diags(kn[closed]) @ Bn + Ct.T @ sp.diags(np.repeat(kn, 2)) @ Ct
         U = factorize(K, backend).solve(F - Bn.T @ (kn[closed] * qp.G[closed]) + Ct.T @ (np.repeat(kn, 2) * c))
@@ -335,3 +337,18 @@ def solve_tresca_penalty(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.nda
         method="tresca-penalty", history=history, energy=qp.energy(x, delta),
         timings={"total": time.perf_counter() - t0},
         info={"T": T, "slip": slips(qp, C, c, x, delta, E), "bounds": g, "gap": gap})
+
+
+def normal_part(qp: ContactQP) -> tuple[ContactQP, np.ndarray]:
+    """The QP without the δ columns no gap sees (D_j = 0: a rigid motion only friction holds), and the mask of the
+    columns kept: the frictionless start of a friction solve, where those amounts are undetermined (set to 0)."""
+    keep = np.any(qp.D != 0.0, axis=0) if qp.k else np.zeros(0, dtype=bool)
+    if keep.all():
+        return qp, keep
+    sub = copy.copy(qp)
+    sub.D, sub.P = (np.ascontiguousarray(qp.D[:, keep]), qp.P[keep]) if keep.any() else (None, None)
+    if qp.friction_held is not None:
+        sub.friction_held = np.asarray(qp.friction_held)[keep] if keep.any() else None
+    if qp.force_labels is not None:
+        sub.force_labels = [label for label, k in zip(qp.force_labels, keep) if k] if keep.any() else None
+    return sub, keep
