@@ -196,11 +196,18 @@ def solve_tresca_dual(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarra
         info={"T": T, "slip": slips(qp, C, c, U, delta, E), "bounds": g, "gap": qp.gap(U, delta)})
 
 
-#: the augmented Lagrangian's penalty ρ, relative to max diag Ŝ / max ‖D̂_j‖²: each outer step divides the force
-#: balance's error by about 1 + ρ·(D̂ᵀŜ⁻¹D̂ on the face) ≥ 1 + RHO
+#: the augmented Lagrangian's first penalty ρ, relative to max diag Ŝ / max ‖D̂_j‖²
 RHO = 100.0
+#: ρ grows by this factor whenever an outer step divides the force balance's error by less than ``RHO_GAIN``
+#: (a motion that friction alone holds: the slipping discs' face sees it weakly, and ρ = 100 divided the error
+#: by only 1.5 per step on the vessel on saddles, 20 × 24), up to ``RHO_MAX`` times its first value
+RHO_GROWTH, RHO_GAIN, RHO_MAX = 10.0, 10.0, 1e6
 #: outer steps of the augmented Lagrangian
 OUTER = 60
+#: MPGP's steps from a warm start before it starts again from 0: from the last fixed-point iterate's multipliers,
+#: with many discs on their circles, its face steps crawled along them (500 steps, projected gradient stuck at
+#: 1.2e-5 on the vessel on saddles, 20 × 24, second Coulomb iteration); from 0 it converged in 137
+WARM_LIMIT = 150
 
 
 def _augmented(S: np.ndarray, lin: np.ndarray, Dh: np.ndarray, P: np.ndarray, m: int, g: np.ndarray,
@@ -208,30 +215,42 @@ def _augmented(S: np.ndarray, lin: np.ndarray, Dh: np.ndarray, P: np.ndarray, m:
                history: list) -> tuple[np.ndarray, np.ndarray, int, bool]:
     """min ½yᵀŜy + linᵀy over Λ ≥ 0, |T_j| ≤ g_j with D̂ᵀy = −P: the augmented Lagrangian (SMALBE's outer loop,
     Dostál) around ``disc_qp`` on Ŝ + ρD̂D̂ᵀ with the linear term lin + D̂(δ + ρP), whose gradient is the gap and
-    slip at the travels δ + ρ(D̂ᵀy + P); then δ ← δ + ρ(D̂ᵀy + P) (the multiplier of the equality: the travels).
-    Stops when the inner QP converged with the gaps of the true δ to ``tol`` and ‖D̂ᵀy + P‖ ≤ tol × its gross
-    size. Returns y, δ, iterations, converged."""
+    slip at the travels δ + ρ(D̂ᵀy + P); then δ ← δ + ρ(D̂ᵀy + P) (the multiplier of the equality: the travels),
+    and ρ grows where the balance's error falls slowly (``RHO_GROWTH``). Stops when the inner QP converged with
+    the gaps of the true δ to ``tol`` and ‖D̂ᵀy + P‖ ≤ tol × its gross size. Returns y, δ, iterations, converged."""
     colnorm = float(np.max(np.sum(Dh**2, axis=0)))
-    rho = RHO * max(float(np.max(np.diag(S), initial=0.0)), 1e-300) / max(colnorm, 1e-300)
-    H = S + rho * (Dh @ Dh.T)
+    rho0 = RHO * max(float(np.max(np.diag(S), initial=0.0)), 1e-300) / max(colnorm, 1e-300)
+    rho, DD = rho0, Dh @ Dh.T
+    H = S + rho * DD
     delta = np.zeros(Dh.shape[1]) if delta is None else delta.copy()
-    y = np.zeros(lin.size) if y0 is None else y0
-    total, ok = 0, False
+    y = y0
+    total, ok, last = 0, False, np.inf
     for _ in range(OUTER):
         shifted = lin + Dh @ (delta + rho * P)
         # the inner tolerance relative to the true gaps' scale, not to ρD̂P's (which the linear term carries)
         scale = max(float(np.abs(lin + Dh @ delta).max(initial=0.0)), 1e-300)
         inner_tol = tol * scale / max(float(np.abs(shifted).max(initial=0.0)), 1e-300)
-        y, its, ok = disc_qp(H, shifted, m, g, y0=y, tol=inner_tol, max_iterations=max(max_iterations - total, 1),
-                             history=history)
+        budget = max(max_iterations - total, 1)
+        y_start = y
+        y, its, ok = disc_qp(H, shifted, m, g, y0=y_start, tol=inner_tol, max_iterations=min(budget, WARM_LIMIT)
+                             if y_start is not None else budget, history=history)
         total += its
+        if not ok and y_start is not None and total < max_iterations:  # a warm start that crawls: from 0
+            y, its, ok = disc_qp(H, shifted, m, g, tol=inner_tol, max_iterations=max(max_iterations - total, 1),
+                                 history=history)
+            total += its
         h = Dh.T @ y + P
         delta = delta + rho * h
         size = max(float(np.linalg.norm(P)), float(np.linalg.norm(np.abs(Dh).T @ np.abs(y))), 1e-300)
-        if ok and np.linalg.norm(h) <= tol * size:
+        error = float(np.linalg.norm(h)) / size
+        if ok and error <= tol:
             return y, delta, total, True
         if total >= max_iterations:
             break
+        if error > last / RHO_GAIN and rho < RHO_MAX * rho0:
+            rho *= RHO_GROWTH
+            H = S + rho * DD
+        last = error
     return y, delta, total, False
 
 
