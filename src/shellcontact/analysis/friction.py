@@ -55,8 +55,9 @@ def load_stages(case: Case) -> list[tuple[float, float]]:
 
 
 def _staged(case: Case, indentation: float, slide: float) -> Case:
-    """``case`` with every punch's indentation and slide scaled (a punch in a fixed position stays where it is)."""
-    punches = tuple(dataclasses.replace(p, indentation=p.indentation * indentation,
+    """``case`` with every punch's indentation (a force-controlled punch's force) and slide scaled (a punch in a
+    fixed position stays where it is)."""
+    punches = tuple(dataclasses.replace(p, indentation=p.indentation * indentation, force=p.force * indentation,
                                         slide=None if p.slide is None else p.slide * slide) for p in case.punches)
     return dataclasses.replace(case, punches=punches)
 
