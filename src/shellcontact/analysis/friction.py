@@ -280,10 +280,12 @@ def _held(tresca: Any, qp: Any, E: np.ndarray, d: Any, case: Case) -> Any:
                 capacity = float(g @ reach)
                 if abs(qp.P[j]) > capacity:
                     names = ", ".join(f"punch.{k}" for k in np.unique(punch_of[(reach > 0) & (g > 0)]))
-                    raise InputError("loads", f"the shell slides away along the {qp.force_label(j).split(': ')[-1]}"
-                                     f": the loads push it with {abs(qp.P[j]):.6g} N (per unit motion) but the "
-                                     f"friction of {names or 'no punch'} holds at most {capacity:.6g} N there "
-                                     "(everything slides; no static solution): lower the load or raise the friction")
+                    motion = qp.force_label(j).split(": ")[-1]
+                    per = " (a moment / the radius)" if motion.startswith("rotation") else ""
+                    raise InputError("loads", f"the shell slides away along the {motion}: the loads push it with "
+                                     f"{abs(qp.P[j]):.6g} N{per} but the friction of {names or 'no punch'} holds at "
+                                     f"most {capacity:.6g} N there (everything slides; no static solution): lower the "
+                                     "load or raise the friction")
         return tresca(qp_, C, c, g, **options)
 
     return checked
