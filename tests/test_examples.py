@@ -46,6 +46,8 @@ COARSE = {
     "ring_stiffness": ("mesh.nx=4", "mesh.nphi=32", "mesh.refine=0"),
     "pipe_rollers": ("mesh.nx=32", "mesh.nphi=24", "mesh.refine=0", "mesh.pattern=crossed"),
     "vessel_saddles": ("mesh.nx=20", "mesh.nphi=32", "mesh.refine=0", "mesh.pattern=crossed"),
+    "vessel_saddles_sliding": ("mesh.nx=20", "mesh.nphi=24", "mesh.refine=0"),  # 11 s: its own checks in
+    # tests/test_friction_floating.py
 }
 FILES = sorted(EXAMPLES.glob("*.toml"))
 

@@ -83,7 +83,12 @@ class Discretization:
         rows = self.shared.get("rows")  # the labels and flexibilities of the rows B: the same for a force curve
         if rows is None or rows[0] is not op.B:
             rows = self.shared["rows"] = (op.B, _row_labels(op), row_flexibility(self.space.mesh.shell, op))
-        qp = ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights, D=D, P=P, row_labels=rows[1],
+        held = None
+        if fl is not None and fl.by_friction:  # the last of the restrained motions: held by friction alone
+            held = np.zeros(D.shape[1], bool)
+            kr = D.shape[1] - fl.D.shape[1] + len(fl.restrained)
+            held[kr - fl.by_friction:kr] = True
+        qp = ContactQP(self.Ar, self.Fr, self.Br, op.G, op.weights, D=D, P=P, row_labels=rows[1], friction_held=held,
                        force_labels=labels if D is not None else None, symmetric=True, flexibility=rows[2],
                        finite=self.shared.get("finite_A") is self.Ar)
         self.shared["finite_A"] = self.Ar  # checked
@@ -113,7 +118,8 @@ def discretize(case: Case, contact_points: str = SolverOptions.contact_points, t
         F = load_vector(space, case.loads)
         red = Reduction.build(space, case.supports, floating=bool(punches))
         op = contact_operator(space, punches, contact_points) if punches else None
-        floating = analyse_floating(space, red, op, F) if op is not None and red.motions.size else None
+        rubbing = None if op is None else np.array([case.punches[k].friction.active for k in op.punch], bool)
+        floating = analyse_floating(space, red, op, F, rubbing) if op is not None and red.motions.size else None
         return Discretization(space, A, F, red, red.reduce_matrix(A), red.reduce_vector(F), punches, op,
                               None if op is None else op.B @ red.P, floating)
 

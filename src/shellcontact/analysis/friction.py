@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..contact.floating import friction_columns
 from ..contact.friction import COULOMB_CONTRACTION, COULOMB_TOL, TangentialOperator, solve_coulomb, tangential_operator
 from ..contact.operator import contact_operator
 from ..contact.punches import place_punches
@@ -30,7 +31,7 @@ from ..problem.options import SolverOptions
 from ..solvers.active_set import solve_active_set
 from ..solvers.qp import ContactSolution
 from ..solvers.screening import solve_screened
-from ..solvers.tresca import solve_tresca_dual, solve_tresca_penalty
+from ..solvers.tresca import normal_part, solve_tresca_dual, solve_tresca_penalty
 from ..solvers.tresca_newton import solve_tresca_newton
 from ..solvers.tresca_screened import solve_tresca_screened
 from .validity import ResultWarning
@@ -54,8 +55,9 @@ def load_stages(case: Case) -> list[tuple[float, float]]:
 
 
 def _staged(case: Case, indentation: float, slide: float) -> Case:
-    """``case`` with every punch's indentation and slide scaled (a punch in a fixed position stays where it is)."""
-    punches = tuple(dataclasses.replace(p, indentation=p.indentation * indentation,
+    """``case`` with every punch's indentation (a force-controlled punch's force) and slide scaled (a punch in a
+    fixed position stays where it is)."""
+    punches = tuple(dataclasses.replace(p, indentation=p.indentation * indentation, force=p.force * indentation,
                                         slide=None if p.slide is None else p.slide * slide) for p in case.punches)
     return dataclasses.replace(case, punches=punches)
 
@@ -186,13 +188,15 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
     def bounds(Lam: np.ndarray) -> np.ndarray:
         return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
 
+    E = _slip_columns(d, qp, top)
     start = None
     if opts.method == "active-set":
         # the pipeline's factorisation solves A whether or not it is bordered by the screened rows
         options: dict[str, Any] = {"factorization": setup.factorization, "tol": opts.tolerance, "cache": {}}
         tresca, fixed_tol = solve_tresca_newton, COULOMB_TOL
-        if setup.screen is not None and qp is setup.qp:  # the frictionless solve of the pipeline, screened, is
-            # the start; every Tresca solve runs on the screened rows with its dense Schur complement
+        # the frictionless solve of the pipeline, screened, is the start; every Tresca solve runs on the screened
+        # rows with its dense Schur complement (not with motions only friction holds: ``_frictionless_start``)
+        if setup.screen is not None and qp is setup.qp and np.all(normal_part(qp)[1]):
             start = solve_screened(qp, setup.screen, solve_active_set, setup.factorization, tol=opts.tolerance,
                                    initial_active=setup.initial_active)
             start.info.update(T=np.zeros(2 * qp.m), bounds=np.zeros(qp.m))
@@ -200,7 +204,7 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
             tresca = solve_tresca_screened
 
         def warm(sol: ContactSolution) -> dict:
-            return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
+            return {"initial": _warm_start(sol)}
     elif opts.method == "penalty":
         options = {"epsilon": setup.eps, "tol": opts.tolerance}
         tresca, fixed_tol = solve_tresca_penalty, PENALTY_FIXED_POINT_TOL
@@ -213,10 +217,78 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
         tresca, fixed_tol = solve_tresca_dual, COULOMB_TOL
 
         def warm(sol: ContactSolution) -> dict:
-            return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
+            return {"initial": _warm_start(sol)}
+    if E is not None:
+        options["E"] = E
+        tresca = _held(tresca, qp, E, d, case)
+        if start is None and not np.all(normal_part(qp)[1]):  # the frictionless start without the motions only
+            start = _frictionless_start(qp, C, c, E, tresca, options)  # friction holds (their amounts: 0)
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, start=start,
                                 accelerate=bool(np.any(mu > 0)), **options)  # Coulomb: Anderson's mixing
     return sol, record, top
+
+
+def _warm_start(sol: ContactSolution) -> np.ndarray:
+    """The next Tresca solve's start: (Λ, T) and the travels and rigid motions δ."""
+    return np.concatenate([sol.Lambda, sol.info["T"]] + ([sol.delta] if sol.delta is not None else []))
+
+
+def _slip_columns(d: Any, qp: Any, top: TangentialOperator) -> np.ndarray | None:
+    """E (2m × k): the slips' change per unit δ. A force-controlled punch's travel along its direction drags
+    nothing (0: as an indentation, it places the punch; the slip counts from the placed punch), a rigid motion R
+    of a shell held by contact moves every point by R (C R, ``floating.friction_columns``)."""
+    if not qp.k:
+        return None
+    E = np.zeros((2 * qp.m, qp.k))
+    fl = d.floating
+    if fl is not None and fl.P.size:
+        E[:, qp.k - fl.D.shape[1]:] = friction_columns(fl, top.C)
+    return E
+
+
+def _frictionless_start(qp: Any, C: Any, c: np.ndarray, E: np.ndarray, tresca: Any, options: dict
+                        ) -> ContactSolution:
+    """The frictionless solve (g = 0) on the QP without the δ columns no gap sees (``normal_part``: the rigid
+    motions only friction holds, undetermined without it), their amounts set to 0."""
+    qp0, keep = normal_part(qp)
+    own = {**options, "E": E[:, keep] if keep.any() else None}
+    if "cache" in own:  # a cache of its own: the Workspace it keeps belongs to qp0
+        own["cache"] = {}
+    sol = tresca(qp0, C, c, np.zeros(qp.m), **own)
+    delta = np.zeros(qp.k)
+    if sol.delta is not None:
+        delta[keep] = sol.delta
+    sol.delta = delta
+    return sol
+
+
+def _held(tresca: Any, qp: Any, E: np.ndarray, d: Any, case: Case) -> Any:
+    """``tresca`` after a check that the friction can hold each rigid motion that only friction holds: its load
+    P_j at most Σ_i g_i |E_ij| (the most the bounds can resist along it); else there is no solution, the shell
+    slides away (InputError naming the motion, the punches and both forces)."""
+    fl = d.floating
+    if fl is None or not fl.by_friction:
+        return tresca
+    kr = len(fl.restrained)
+    first = qp.k - fl.D.shape[1] + kr - fl.by_friction
+    punch_of = d.operator.punch
+
+    def checked(qp_: Any, C: Any, c: np.ndarray, g: np.ndarray, **options: Any) -> ContactSolution:
+        if qp_ is qp and np.any(g > 0):
+            for j in range(first, first + fl.by_friction):
+                reach = np.linalg.norm(E[:, j].reshape(-1, 2), axis=1)
+                capacity = float(g @ reach)
+                if abs(qp.P[j]) > capacity:
+                    names = ", ".join(f"punch.{k}" for k in np.unique(punch_of[(reach > 0) & (g > 0)]))
+                    motion = qp.force_label(j).split(": ")[-1]
+                    per = " (a moment / the radius)" if motion.startswith("rotation") else ""
+                    raise InputError("loads", f"the shell slides away along the {motion}: the loads push it with "
+                                     f"{abs(qp.P[j]):.6g} N{per} but the friction of {names or 'no punch'} holds at "
+                                     f"most {capacity:.6g} N there (everything slides; no static solution): lower the "
+                                     "load or raise the friction")
+        return tresca(qp_, C, c, g, **options)
+
+    return checked
 
 
 def attach_friction(result: Any, friction: dict) -> None:

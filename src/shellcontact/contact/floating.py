@@ -18,6 +18,12 @@ contact alone"):
   to no rigid component in the displacement (``settle``) as far as the gaps allow;
 * **gauged** — seen by no row and not excited: the gauge alone fixes it (no gap depends on it), and the
   displacement's component along it is removed from the result;
+* **held by friction** — seen by no row at first contact but by the tangential rows of a punch with friction
+  (a vessel on concentric saddles: its axial sliding and its rotation about the axis). Friction restrains it:
+  it is an unknown α like a restrained motion, with its load Rᵀ F, and its slips change by C R α
+  (``friction_columns``); the gauge must not fix it, or the gauge's dof would carry the friction force's
+  imbalance. Where the friction cannot hold its load (everything slides), there is no solution: the
+  friction solve refuses it (``analysis.friction``), naming the motion, the punches and the force;
 * **unrestrained and excited** — refused, naming the motion and the support that would remove it.
 
 A load that moves the shell away from every punch that could hold it (a direction y of the rigid
@@ -37,10 +43,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..errors import InputError
 from ..shell.spaces import ShellSpace
 from ..shell.supports import Reduction, _echelon, describe_motion, remedy, right_singular, rigid_modes
+from .friction import tangent_basis
 from .operator import ContactOperator
 
 #: a free motion carries no load when |Rᵀ F| is below this fraction of its gross size Σ |f_d r_d| (round-off,
@@ -68,6 +76,8 @@ class Floating:
     D: np.ndarray  # (m, kr + kb) B R: the gap's change per unit α
     P: np.ndarray  # (kr + kb,) Rᵀ F: the load's work per unit α (zero on a balanced motion: its Rᵀ F is round-off)
     areas: np.ndarray  # (nvertices,) the vertices' shares of the middle surface (P1 lumped), for ``fit``
+    #: the last ``by_friction`` rows of ``restrained`` are held by friction alone (no row sees them at first contact)
+    by_friction: int = 0
 
     @property
     def columns(self) -> np.ndarray:
@@ -123,6 +133,8 @@ class Floating:
         c = np.asarray(coefficients, float)
         return {"translation": [float(v) for v in c[:3]], "rotation": [float(v) / self.radius for v in c[3:]],
                 "restrained": [describe_motion(g, self.radius) for g in self.restrained],
+                "held_by_friction": [describe_motion(g, self.radius)
+                                     for g in self.restrained[len(self.restrained) - self.by_friction:]],
                 "balanced": [describe_motion(g, self.radius) for g in self.balanced],
                 "gauged": [describe_motion(g, self.radius) for g in self.gauged]}
 
@@ -164,9 +176,11 @@ def vertex_areas(space: ShellSpace) -> np.ndarray:
     return out
 
 
-def analyse(space: ShellSpace, reduction: Reduction, op: ContactOperator, F: np.ndarray) -> Floating:
+def analyse(space: ShellSpace, reduction: Reduction, op: ContactOperator, F: np.ndarray,
+            rubbing: np.ndarray | None = None) -> Floating:
     """Classify the free motions of ``reduction`` against the contact rows of ``op`` and the load F;
-    refuse those that nothing can hold (InputError naming every such motion)."""
+    refuse those that nothing can hold (InputError naming every such motion). ``rubbing`` (bool, m): the rows
+    of punches with friction, whose tangential rows hold the motions they see (module docstring)."""
     sh = space.mesh.shell
     modes = rigid_modes(space) if reduction.modes is None else reduction.modes
     free = reduction.motions
@@ -176,6 +190,11 @@ def analyse(space: ShellSpace, reduction: Reduction, op: ContactOperator, F: np.
     exact = exact_gap_change(op, sh.radius)  # (m, 6)
     BR_all = exact @ free.T  # (m, k)
     restrained, unrestrained = _split(BR_all[first_contact_rows(op, sh.radius)], free, 1e-8)
+    by_friction = 0
+    if rubbing is not None and np.any(rubbing) and len(unrestrained):
+        tangential = exact_slip_change(op, sh.radius)[:, rubbing]  # (2, rows, 6)
+        held, unrestrained = _split(tangential.reshape(-1, 6) @ unrestrained.T, unrestrained, SEEN_TOL)
+        restrained, by_friction = np.vstack([restrained, held]), len(held)
     excited = []
     for c in unrestrained:
         r = modes @ c
@@ -200,11 +219,34 @@ def analyse(space: ShellSpace, reduction: Reduction, op: ContactOperator, F: np.
     # a rotation of 42 rad about z on pipe_rollers at 8 x 8, from which the dual method did not return)
     E = exact @ columns.T
     D[np.abs(E) <= SEEN_TOL * max(float(np.abs(E).max()) if E.size else 0.0, 1e-300)] = 0.0
+    P = R[:, :len(restrained)].T @ F
+    for j in range(len(restrained) - by_friction, len(restrained)):  # held by friction: unexcited below round-off
+        if abs(P[j]) <= EXCITATION_TOL * float(np.abs(R[:, j]) @ np.abs(F)):
+            P[j] = 0.0
     floating = Floating(modes=modes, restrained=restrained, balanced=balanced, gauged=gauged, radius=sh.radius,
-                        D=D, P=np.concatenate([R[:, :len(restrained)].T @ F, np.zeros(len(balanced))]),
-                        areas=vertex_areas(space))
+                        D=D, P=np.concatenate([P, np.zeros(len(balanced))]),
+                        areas=vertex_areas(space), by_friction=by_friction)
     check_held(floating, op)
     return floating
+
+
+def exact_slip_change(op: ContactOperator, radius: float) -> np.ndarray:
+    """(2, m, 6): the change of each row's slip τ_ik·r(M_i) per unit of the six exact rigid motions
+    (``exact_gap_change``'s units), τ_ik the punch's tangent vectors there (``friction.tangent_basis``)."""
+    tau = tangent_basis(np.asarray(op.grad, float), np.asarray(op.phi, float))  # (2, 3, m)
+    pts = np.asarray(op.points, float)
+    out = np.zeros((2, op.m, 6))
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = 1.0
+        out[:, :, j] = tau[:, j]
+        out[:, :, 3 + j] = np.einsum("kim,im->km", tau, np.cross(e[:, None] / radius, pts, axis=0))
+    return out
+
+
+def friction_columns(floating: Floating, C: sp.spmatrix) -> np.ndarray:
+    """(2m, kr + kb): the slips' change C R per unit amount of the QP's motions (C: the full tangential rows)."""
+    return np.asarray(C @ (floating.modes @ floating.columns.T)).reshape(C.shape[0], -1)
 
 
 def exact_gap_change(op: ContactOperator, radius: float) -> np.ndarray:
@@ -259,7 +301,9 @@ def check_held(floating: Floating, op: ContactOperator) -> None:
 
     kf = 0 if op.D is None else op.D.shape[1]
     D = floating.D if op.D is None else np.hstack([op.D, floating.D])
-    P = np.concatenate([op.forces, floating.P]) if kf else floating.P
+    P = np.concatenate([op.forces, floating.P]) if kf else floating.P.copy()
+    kr = len(floating.restrained)
+    P[kf + kr - floating.by_friction:kf + kr] = 0.0  # friction holds those up to its capacity (checked in the solve)
     if D.shape[1] == 0:
         return
     scale = max(float(np.linalg.norm(P)), 1e-300)

@@ -42,6 +42,9 @@ class ContactQP:
     #: skip the check max|A − Aᵀ| ≤ 1e-10 max|A| (2-3 s at 1.1M dofs) for a matrix symmetric by
     #: construction (``analysis.Discretization.qp``: Pᵀ A P of an assembled stiffness)
     symmetric: bool = field(default=False, repr=False)
+    #: (k,) bool: the δ columns that only friction holds (a shell's rigid motion no gap sees, D_j = 0): their
+    #: balance is the friction's, which the friction solvers check; the frictionless feasibility check skips them
+    friction_held: np.ndarray | None = None
     #: skip the check that A is finite too (``analysis.Discretization.qp`` checks its reduced stiffness once for
     #: every QP it builds: two passes over 20M entries, 14 ms, per point of a curve at 211k unknowns)
     finite: bool = field(default=False, repr=False)
@@ -323,8 +326,9 @@ def check_feasibility(qp: ContactQP) -> np.ndarray:
 
 
 def _check_force_feasible(qp: ContactQP, live: np.ndarray) -> None:
+    normal = np.ones(qp.k, bool) if qp.friction_held is None else ~np.asarray(qp.friction_held, bool)
     D = qp.D[live]
-    for j in range(qp.k):
+    for j in np.flatnonzero(normal):
         if qp.P[j] > 0 and not np.any(D[:, j] < 0):
             raise InfeasibleProblemError(
                 f"{qp.force_label(j)}: the prescribed force {qp.P[j]:.4g} cannot be carried: no candidate contact "
@@ -337,10 +341,11 @@ def _check_force_feasible(qp: ContactQP, live: np.ndarray) -> None:
                 "frictionless contact without adhesion cannot carry it",
                 [],
             )
-    if qp.k > 1:
+    if normal.sum() > 1:
         from scipy.optimize import linprog
 
-        res = linprog(np.zeros(D.shape[0]), A_eq=D.T, b_eq=-qp.P, bounds=[(0, None)] * D.shape[0], method="highs")
+        res = linprog(np.zeros(D.shape[0]), A_eq=D[:, normal].T, b_eq=-qp.P[normal], bounds=[(0, None)] * D.shape[0],
+                      method="highs")
         if res.status == 2:
             raise InfeasibleProblemError(
                 "the prescribed punch forces cannot be carried together by compressive contact forces "

@@ -22,7 +22,7 @@ from ..errors import SolverError
 from ..linalg import Factorization
 from .qp import ContactQP, ContactSolution
 from .schur import Workspace
-from .tresca import _pair_rows, friction_residuals
+from .tresca import _pair_rows, friction_residuals, slips
 
 
 def screened_order(screen: np.ndarray, extra: np.ndarray) -> np.ndarray:
@@ -41,6 +41,7 @@ def solve_tresca_screened(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.
     g > 0 (module docstring), growing by the rows outside that penetrate. ``cache`` keeps the row set and, per
     row set, the solver's cache (its Workspace on the restricted QP) between calls."""
     m = qp.m
+    E = options.pop("E", None)  # the slips' δ columns (force control, rigid motions): restricted with the rows
     lam0 = np.zeros(m) if initial is None else np.asarray(initial[:m], float)
     need = (lam0 > 0) | (g > 0)
     order = cache.get("order")
@@ -55,20 +56,21 @@ def solve_tresca_screened(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.
             cache.update(key=key, order=order, sub=sub, inner={"ws": Workspace(sub, factorization)})
         sub, inner = cache["sub"], cache["inner"]
         pr = _pair_rows(order)
-        start = None if initial is None else np.concatenate([lam0[order], np.asarray(initial[m:]).reshape(-1, 2)[order]
-                                                             .ravel()])
-        sol = solver(sub, C[pr], c[pr], g[order], factorization=factorization, initial=start, cache=inner, **options)
-        gap = qp.gap(sol.U)
+        start = None if initial is None else np.concatenate([lam0[order], np.asarray(initial[m:3 * m]).reshape(-1, 2)
+                                                             [order].ravel(), np.asarray(initial[3 * m:])])
+        sol = solver(sub, C[pr], c[pr], g[order], factorization=factorization, initial=start, cache=inner,
+                     E=None if E is None else E[pr], **options)
+        gap = qp.gap(sol.U, sol.delta)
         outside = ~_mask(order, m) & (gap < 0)
         if not outside.any() or -gap[outside].min() <= options.get("tol", 1e-10) * max(float(np.abs(gap).max()),
                                                                                        1e-300):
-            return _whole(qp, C, c, g, sol, order, gap, rounds)
+            return _whole(qp, C, c, g, sol, order, gap, rounds, E)
         new = np.flatnonzero(outside)
         order = np.concatenate([order, new[np.argsort(gap[new], kind="stable")]])
         Lam, T = np.zeros(m), np.zeros(2 * m)
         Lam[order[:sol.Lambda.size]] = sol.Lambda
         T.reshape(-1, 2)[order[:sol.Lambda.size]] = sol.info["T"].reshape(-1, 2)
-        initial, lam0 = np.concatenate([Lam, T]), Lam
+        initial, lam0 = np.concatenate([Lam, T] + ([sol.delta] if sol.delta is not None else [])), Lam
     raise SolverError(f"tresca (screened rows): rows outside kept penetrating after {max_rounds} rounds",
                       iterations=sum(rounds))
 
@@ -81,14 +83,15 @@ def _mask(order: np.ndarray | None, m: int) -> np.ndarray:
 
 
 def _whole(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.ndarray, sol: ContactSolution, order: np.ndarray,
-           gap: np.ndarray, rounds: list[int]) -> ContactSolution:
+           gap: np.ndarray, rounds: list[int], E: np.ndarray | None = None) -> ContactSolution:
     """The restricted solution as one of the whole problem (Λ = 0, T = 0 outside)."""
     m = qp.m
     Lam, T = np.zeros(m), np.zeros(2 * m)
     Lam[order] = sol.Lambda
     T.reshape(-1, 2)[order] = sol.info["T"].reshape(-1, 2)
-    info = {**sol.info, "T": T, "slip": C @ sol.U - c, "bounds": g, "gap": gap,
+    info = {**sol.info, "T": T, "slip": slips(qp, C, c, sol.U, sol.delta, E), "bounds": g, "gap": gap,
             "screening": {"rows": rounds, "rounds": len(rounds), "candidates": m}}
-    return ContactSolution(U=sol.U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=None,
-                           iterations=sol.iterations, residuals=friction_residuals(qp, C, c, g, sol.U, Lam, T),
+    return ContactSolution(U=sol.U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=sol.delta,
+                           iterations=sol.iterations,
+                           residuals=friction_residuals(qp, C, c, g, sol.U, Lam, T, sol.delta, E),
                            method=sol.method, history=sol.history, energy=sol.energy, timings=sol.timings, info=info)
