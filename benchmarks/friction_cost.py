@@ -1,12 +1,16 @@
 """Issue 26 item 6: the cost of friction against the frictionless solve of the same case.
 
 examples/panel_pushed_sideways.toml at ``mesh.refine`` r (r = 1: 16.8k unknowns), three variants of its punch:
-frictionless (friction 0, no slide), Tresca (1e7 Pa on the points in contact, 1 mm axial slide) and Coulomb
+frictionless (friction 0, no slide), Tresca (``--tresca-bound``, default 1e7 Pa, on the points in contact, 1 mm
+axial slide) and Coulomb
 (μ = 0.3, the same slide); each by ``--methods`` (default active-set and dual). Every run is a fresh
 subprocess (its peak RSS its own); reported: the whole ``shellcontact.solve`` (wall, CPU s), its solve stage,
 the fixed-point iterations and the solver's iterations, the peak RSS.
 
-    .venv/bin/python benchmarks/friction_cost.py --refine 1 2 [--methods active-set dual]
+    .venv/bin/python benchmarks/friction_cost.py --refine 1 2 [--methods active-set dual] [--tresca-bound 1e6]
+    flock /work/wt/big.lock .venv/bin/python benchmarks/friction_cost.py --refine 112 --methods active-set
+
+(``--refine 112``: the mesh nx = nphi = 112, 216k unknowns, the issue's size; refine 3 is 276k.)
 
 Runs with refine ≥ 3 take more than 4 GB: run them under ``flock /work/wt/big.lock``.
 """
@@ -38,7 +42,10 @@ def one(refine: int, variant: str, method: str, tresca_bound: float) -> dict:
     from shellcontact.problem.case import case_from_dict
 
     data = tomllib.loads(CASE.read_text())
-    data["mesh"]["refine"] = refine
+    if refine > 3:  # not a refine level: the mesh nx = nphi = refine at refine 0 (112: 216k unknowns)
+        data["mesh"].update(nx=refine, nphi=refine, refine=0)
+    else:
+        data["mesh"]["refine"] = refine
     punch = data["punch"][0]
     punch.pop("slide", None)
     punch.update(VARIANTS[variant])
@@ -73,7 +80,8 @@ def _newton_text(record: dict | None) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--refine", type=int, nargs="+", default=[1])
+    ap.add_argument("--refine", type=int, nargs="+", default=[1],
+                    help="refine levels 0-3 of the example's 16 x 16 mesh, or above 3 the mesh nx = nphi = that number")
     ap.add_argument("--methods", nargs="+", default=["active-set", "dual"])
     ap.add_argument("--tresca-bound", type=float, default=1e7, help="the Tresca variant's bound (Pa)")
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
@@ -97,7 +105,8 @@ def main() -> None:
                     continue
                 r = json.loads(out.stdout.strip().splitlines()[-1])
                 print(f"| {refine} | {r['unknowns']} | {r['rows']} | {variant} | {method} | {r['wall_s']:.2f} | "
-                      f"{r['cpu_s']:.2f} | {r['solve_s']:.2f} | {r['fixed_point_iterations']} | {r['newton']} | {r['iterations']} | "
+                      f"{r['cpu_s']:.2f} | {r['solve_s']:.2f} | {r['fixed_point_iterations']} | {r['newton']} | "
+                      f"{r['iterations']} | "
                       f"{r['friction_force_N']:.4g} | {r['peak_rss_MB']:.0f} |", flush=True)
 
 
