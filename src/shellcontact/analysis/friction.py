@@ -49,9 +49,11 @@ PENALTY_FIXED_POINT_TOL = 1e-7
 #: the Newton iterations of a polish of the fixed point's iterate (``solve_coulomb``'s ``polish``): from a
 #: near-solution it converges in 1–2 (32 × 32 panel, μ = 0.3, from the fixed point's solution: 2)
 POLISH_ITERATIONS = 6
-#: the whole-law Newton's iterations before the fixed point takes over (it stops earlier where its sets cycle
-#: or its residual stalls: 7 iterations at 16.8k unknowns, 19 at 68k, μ = 0.3, 3 CPU s there)
-NEWTON_ITERATIONS = 30
+#: the whole-law Newton's iterations before the fixed point takes over: where it converges it takes 4–5 (8 × 8
+#: panel, μ ≤ 3), 10–12 (32 × 32, μ ≤ 1); where it does not, its sets wander (19 iterations before it stalled at
+#: 68k unknowns, μ = 0.3, each adding pairs to solve for: 22 of 48 s of the run, the fixed point that then
+#: converged 11 s)
+NEWTON_ITERATIONS = 12
 
 
 def has_friction(case: Case) -> bool:
