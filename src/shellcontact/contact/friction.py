@@ -212,6 +212,7 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
     gs: list[np.ndarray] = []
     Gs: list[np.ndarray] = []
     converged = cycle = False
+    tried = np.inf  # the change at the last polish
     seen = {g.tobytes()}
     for _ in range(max_iterations):
         sol = tresca(qp, C, c, g, **solver_options, **(warm(sol) if warm is not None else {}))
@@ -222,7 +223,9 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
         if changes[-1] <= fixed_point_tol * max(float(G.max(initial=0.0)), 1e-300):
             g, converged = G, True
             break
-        if polish is not None and changes[-1] <= POLISH_BELOW * max(float(G.max(initial=0.0)), 1e-300):
+        if (polish is not None and changes[-1] <= POLISH_BELOW * max(float(G.max(initial=0.0)), 1e-300)
+                and changes[-1] <= 0.5 * tried):  # again only once the change has halved since the last try
+            tried = changes[-1]  # (216k unknowns: a try at each of 31 iterations, 6 failed steps each)
             polished = polish(sol)
             if polished is not None:
                 sol, converged = polished, True
