@@ -21,7 +21,14 @@ from typing import Any
 import numpy as np
 
 from ..contact.floating import friction_columns
-from ..contact.friction import COULOMB_CONTRACTION, COULOMB_TOL, TangentialOperator, solve_coulomb, tangential_operator
+from ..contact.friction import (
+    COULOMB_CONTRACTION,
+    COULOMB_TOL,
+    CoulombRecord,
+    TangentialOperator,
+    solve_coulomb,
+    tangential_operator,
+)
 from ..contact.operator import contact_operator
 from ..contact.punches import place_punches
 from ..errors import InputError, SolverError
@@ -29,6 +36,7 @@ from ..linalg import factorize
 from ..problem.case import Case
 from ..problem.options import SolverOptions
 from ..solvers.active_set import solve_active_set
+from ..solvers.coulomb_newton import solve_friction_newton
 from ..solvers.qp import ContactSolution
 from ..solvers.screening import solve_screened
 from ..solvers.tresca import normal_part, solve_tresca_dual, solve_tresca_penalty
@@ -39,6 +47,14 @@ from .validity import ResultWarning
 #: the penalty's normal forces carry Newton's round-off (changes of ~3e-9 of the largest bound between
 #: iterations on the paper panel at its default ε), so its fixed point stops at this relative change
 PENALTY_FIXED_POINT_TOL = 1e-7
+#: the Newton iterations of a polish of the fixed point's iterate (``solve_coulomb``'s ``polish``): from a
+#: near-solution it converges in 1–2 (32 × 32 panel, μ = 0.3, from the fixed point's solution: 2)
+POLISH_ITERATIONS = 6
+#: the whole-law Newton's iterations before the fixed point takes over: where it converges it takes 4–5 (8 × 8
+#: panel, μ ≤ 3), 10–12 (32 × 32, μ ≤ 1); where it does not, its sets wander (19 iterations before it stalled at
+#: 68k unknowns, μ = 0.3, each adding pairs to solve for: 22 of 48 s of the run, the fixed point that then
+#: converged 11 s)
+NEWTON_ITERATIONS = 12
 
 
 def has_friction(case: Case) -> bool:
@@ -189,7 +205,7 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
         return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
 
     E = _slip_columns(d, qp, top)
-    start = None
+    start, newton, polish = None, None, None
     if opts.method == "active-set":
         # the pipeline's factorisation solves A whether or not it is bordered by the screened rows
         options: dict[str, Any] = {"factorization": setup.factorization, "tol": opts.tolerance, "cache": {}}
@@ -205,6 +221,27 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
 
         def warm(sol: ContactSolution) -> dict:
             return {"initial": _warm_start(sol)}
+
+        law = np.stack([mu * scale, tresca_g], axis=1)
+        if np.any(mu > 0) and E is None:  # the whole law by Newton (Coulomb without δ; the case's Tresca
+            # keeps the fixed point: its bound jumps with the closed set, docs/theory.md §9a)
+            if start is None:
+                start = solve_active_set(qp, tol=opts.tolerance, factorization=setup.factorization)
+                start.info.update(T=np.zeros(2 * qp.m), bounds=np.zeros(qp.m))
+            sol, fallback = _newton(qp, C, c, law, options, np.concatenate([start.Lambda, np.zeros(2 * qp.m)]),
+                                    NEWTON_ITERATIONS)
+            newton = {"iterations": int(sol.iterations), "converged": fallback is None, "fallback": fallback,
+                      "polish_iterations": []}
+            if fallback is None:
+                return sol, CoulombRecord(0, [], None, True, newton=newton), top
+            print(f"note: friction: the semismooth Newton on the friction law stopped ({fallback}) after "
+                  f"{sol.iterations} iterations; the fixed point of Tresca problems follows", file=sys.stderr)
+
+            def polish(s: ContactSolution) -> ContactSolution | None:
+                y = np.concatenate([s.Lambda, s.info["T"]])
+                out, failed = _newton(qp, C, c, law, options, y, POLISH_ITERATIONS)
+                newton["polish_iterations"].append(int(out.iterations))
+                return out if failed is None else None
     elif opts.method == "penalty":
         options = {"epsilon": setup.eps, "tol": opts.tolerance}
         tresca, fixed_tol = solve_tresca_penalty, PENALTY_FIXED_POINT_TOL
@@ -224,7 +261,8 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
         if start is None and not np.all(normal_part(qp)[1]):  # the frictionless start without the motions only
             start = _frictionless_start(qp, C, c, E, tresca, options)  # friction holds (their amounts: 0)
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, start=start,
-                                accelerate=bool(np.any(mu > 0)), **options)  # Coulomb: Anderson's mixing
+                                accelerate=bool(np.any(mu > 0)), polish=polish, **options)  # Coulomb: Anderson's mixing
+    record.newton = newton
     return sol, record, top
 
 
@@ -291,6 +329,21 @@ def _held(tresca: Any, qp: Any, E: np.ndarray, d: Any, case: Case) -> Any:
     return checked
 
 
+def _newton(qp: Any, C: Any, c: np.ndarray, law: np.ndarray, options: dict, initial: np.ndarray,
+            max_iterations: int = 50) -> tuple[ContactSolution, str | None]:
+    """The semismooth Newton on the whole law (``solvers.coulomb_newton``) from y = ``initial``, on the screened
+    rows where ``options`` has them, sharing the fixed point's cache (its Workspace and pair solves). Returns its
+    solution and why it stopped without converging (None where it converged)."""
+    tol, fac = options["tol"], options["factorization"]
+    if "screen" in options:
+        sol = solve_tresca_screened(qp, C, c, law, solve_friction_newton, options["screen"], fac, options["cache"],
+                                    initial=initial, tol=tol, max_iterations=max_iterations)
+    else:
+        sol = solve_friction_newton(qp, C, c, law, tol=tol, factorization=fac, initial=initial, cache=options["cache"],
+                                    max_iterations=max_iterations)
+    return sol, sol.info["fallback"]
+
+
 def attach_friction(result: Any, friction: dict) -> None:
     """Put the friction force Cᵀ T into the shell's balance, the per-punch friction entries into the contact
     summary (``ContactResult.friction``) and a coded warning where the fixed point did not contract."""
@@ -330,7 +383,7 @@ def attach_friction(result: Any, friction: dict) -> None:
                 "this result is not one; lower the Tresca bound or the slide, or use Coulomb friction")
         result.info.setdefault("warnings", []).append(ResultWarning("friction_no_solution", text))
         print(f"warning: {text}", file=sys.stderr)
-    elif not record.converged or record.contraction > COULOMB_CONTRACTION:
+    elif not record.converged or (record.contraction is not None and record.contraction > COULOMB_CONTRACTION):
         state = (f"did not converge in {record.iterations} iterations" if not record.converged
                  else f"contracts only by {record.contraction:.3g} per iteration (> {COULOMB_CONTRACTION})")
         text = (f"friction: the fixed point of the friction bounds on the normal forces {state}: the static friction "

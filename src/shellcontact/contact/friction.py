@@ -146,19 +146,28 @@ class CoulombRecord:
 
     iterations: int
     changes: list[float]
-    contraction: float
+    #: None where no fixed point ran (the semismooth Newton on the whole law converged: ``newton``)
+    contraction: float | None
     converged: bool
     #: the bounds returned to an earlier iterate's exactly (a cycle of contact sets: the Tresca bound on the
     #: contact set then has no solution among them, docs/theory.md §9a); the fixed point stopped there
     cycle: bool = False
     #: "none" (g^{k+1} = G(g^k)) or "anderson" (``anderson_step``)
     acceleration: str = "none"
+    #: the semismooth Newton on the whole law tried first (``solvers.coulomb_newton``): its iterations, whether it
+    #: converged, and why not (``fallback``: then the fixed point above ran); None where it was not tried
+    newton: dict | None = None
 
     def summary(self) -> dict:
-        return {"iterations": self.iterations, "contraction": self.contraction, "converged": self.converged,
-                "cycle": self.cycle, "changes_N": self.changes, "acceleration": self.acceleration}
+        out = {"iterations": self.iterations, "contraction": self.contraction, "converged": self.converged,
+               "cycle": self.cycle, "changes_N": self.changes, "acceleration": self.acceleration}
+        if self.newton is not None:
+            out["newton"] = self.newton
+        return out
 
 
+#: the fixed point's change (relative to the largest bound) below which ``solve_coulomb`` tries its ``polish``
+POLISH_BELOW = 1e-2
 #: iterates Anderson's mixing remembers
 ANDERSON_DEPTH = 5
 
@@ -179,7 +188,7 @@ def anderson_step(gs: list[np.ndarray], Gs: list[np.ndarray]) -> np.ndarray:
 def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndarray], np.ndarray],
                   tresca: Callable, max_iterations: int = 50, fixed_point_tol: float = COULOMB_TOL,
                   warm: Callable[[Any], dict] | None = None, start: Any = None, accelerate: bool = False,
-                  **solver_options):
+                  polish: Callable[[Any], Any] | None = None, **solver_options):
     """Friction whose bounds depend on the normal forces, g = bounds(Λ), by the fixed point on Tresca problems:
     g^0 = bounds(Λ) of the frictionless solution (``tresca`` with g = 0), g^{k+1} = bounds(Λ^k), until
     ‖g^{k+1} − g^k‖∞ ≤ fixed_point_tol·‖g^{k+1}‖∞. Coulomb: bounds(Λ) = μ |∇Z| Λ
@@ -192,7 +201,9 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
     next bounds by ``anderson_step`` of the last ``ANDERSON_DEPTH`` iterates (the plain iteration alternated and
     contracted by 0.72 only, 50 iterations without converging, Coulomb μ = 0.3 at 16.8k unknowns); the
     contraction is then that of the map G itself, the largest |G(g_k) − G(g_{k−1})|∞ / |g_k − g_{k−1}|∞ above the
-    floor (``_contraction``).
+    floor (``_contraction``). ``polish(solution)``: once a change is below ``POLISH_BELOW``·‖G‖∞, a solver of the
+    whole law from that iterate (``solvers.coulomb_newton``), returning its solution or None where it did not
+    converge; a solution ends the fixed point (converged: it satisfies the law itself).
     Returns the last Tresca solution and a ``CoulombRecord``."""
     sol = start if start is not None else tresca(qp, C, c, np.zeros(qp.m), **solver_options)
     G = bounds(sol.Lambda)
@@ -201,6 +212,7 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
     gs: list[np.ndarray] = []
     Gs: list[np.ndarray] = []
     converged = cycle = False
+    tried = np.inf  # the change at the last polish
     seen = {g.tobytes()}
     for _ in range(max_iterations):
         sol = tresca(qp, C, c, g, **solver_options, **(warm(sol) if warm is not None else {}))
@@ -211,6 +223,14 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
         if changes[-1] <= fixed_point_tol * max(float(G.max(initial=0.0)), 1e-300):
             g, converged = G, True
             break
+        if (polish is not None and changes[-1] <= POLISH_BELOW * max(float(G.max(initial=0.0)), 1e-300)
+                and changes[-1] <= 0.5 * tried):  # again only once the change has halved since the last try
+            tried = changes[-1]  # (216k unknowns: a try at each of 31 iterations, 6 failed steps each)
+            polished = polish(sol)
+            if polished is not None:
+                sol, converged = polished, True
+                G = bounds(sol.Lambda)
+                break
         g = anderson_step(gs[-ANDERSON_DEPTH - 1:], Gs[-ANDERSON_DEPTH - 1:]) if accelerate else G
         if g.tobytes() in seen:  # back to earlier bounds: the same solves again (a cycle of contact sets)
             cycle = True

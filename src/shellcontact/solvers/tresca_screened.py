@@ -39,11 +39,12 @@ def solve_tresca_screened(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.
                           initial: np.ndarray | None = None, max_rounds: int = 20, **options) -> ContactSolution:
     """``solver`` (``solve_tresca_newton``) on the rows ``screen`` plus those with Λ > 0 in ``initial`` or a bound
     g > 0 (module docstring), growing by the rows outside that penetrate. ``cache`` keeps the row set and, per
-    row set, the solver's cache (its Workspace on the restricted QP) between calls."""
+    row set, the solver's cache (its Workspace on the restricted QP) between calls. ``g`` may be a law (m, 2)
+    whose solver computes the bounds (``coulomb_newton``, bounds 0 off contact): then only Λ > 0 adds rows."""
     m = qp.m
     E = options.pop("E", None)  # the slips' δ columns (force control, rigid motions): restricted with the rows
     lam0 = np.zeros(m) if initial is None else np.asarray(initial[:m], float)
-    need = (lam0 > 0) | (g > 0)
+    need = (lam0 > 0) | (g > 0) if g.ndim == 1 else lam0 > 0
     order = cache.get("order")
     if order is None or np.any(need & ~_mask(order, m)):
         order = screened_order(screen, need | (_mask(order, m) if order is not None else np.zeros(m, bool)))
@@ -89,6 +90,9 @@ def _whole(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.ndarray, sol: C
     Lam, T = np.zeros(m), np.zeros(2 * m)
     Lam[order] = sol.Lambda
     T.reshape(-1, 2)[order] = sol.info["T"].reshape(-1, 2)
+    if g.ndim == 2:  # a law: the bounds its solver found on the rows, 0 outside (no contact)
+        g = np.zeros(m)
+        g[order] = sol.info["bounds"]
     info = {**sol.info, "T": T, "slip": slips(qp, C, c, sol.U, sol.delta, E), "bounds": g, "gap": gap,
             "screening": {"rows": rounds, "rounds": len(rounds), "candidates": m}}
     return ContactSolution(U=sol.U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=sol.delta,

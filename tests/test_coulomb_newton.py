@@ -1,0 +1,101 @@
+"""The semismooth Newton on the whole friction law (``solvers.coulomb_newton``, issue 26 item 6): Coulomb's
+bound μ|∇Z|Λ updated inside the Newton, no outer fixed point. Checked against the fixed point of Tresca
+problems, solved by another algorithm (the dual's MPGP) and by the Tresca Newton, on the paper's panel."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_friction_case import panel as panel_dict
+from test_tresca import panel, rel
+
+from shellcontact import solve
+from shellcontact.contact.friction import solve_coulomb
+from shellcontact.problem.case import case_from_dict
+from shellcontact.solvers.active_set import solve_active_set
+from shellcontact.solvers.coulomb_newton import solve_friction_newton
+from shellcontact.solvers.tresca import solve_tresca_dual
+from shellcontact.solvers.tresca_newton import solve_tresca_newton
+
+
+def _warm(sol):
+    return {"initial": np.concatenate([sol.Lambda, sol.info["T"]])}
+
+
+@pytest.mark.parametrize("mu", [0.3, 1.0])
+def test_newton_is_the_fixed_points_coulomb_solution(mu):
+    """μ = 0.3 and 1, 1 mm axial slide, 8 × 8: the Newton from the frictionless solution converges in a few
+    steps (measured 4 and 5, quadratically: residuals 3e-1, 8e-3, 3e-6, 1e-13 at μ = 0.3) to the solution the
+    fixed point of Tresca problems converges to, by the Tresca Newton and by the dual (U, Λ and T to 1e-8;
+    measured ≤ 1.3e-11 in U, Λ and ≤ 5e-10 in T, the fixed point's own tolerance 1e-9 on the bounds)."""
+    _, qp, op, top, C, c, fac = panel()
+    law = np.stack([mu * np.linalg.norm(op.grad, axis=0), np.zeros(qp.m)], axis=1)
+    free = solve_active_set(qp, factorization=fac)
+    newton = solve_friction_newton(qp, C, c, law, factorization=fac,
+                                   initial=np.concatenate([free.Lambda, np.zeros(2 * qp.m)]))
+    assert newton.info["fallback"] is None and newton.iterations <= 15  # measured 4, 5
+    for name, value in newton.residuals.items():  # the Coulomb law itself, with its own bounds μ|∇Z|Λ
+        assert value < 1e-9, name  # measured ≤ 3.6e-12
+    assert np.array_equal(newton.info["bounds"], top.coulomb_bounds(op, newton.Lambda, mu))
+    for tresca in (solve_tresca_newton, solve_tresca_dual):
+        fixed, record = solve_coulomb(qp, C, c, lambda L: top.coulomb_bounds(op, L, mu), tresca, factorization=fac,
+                                      cache={}, accelerate=True, warm=_warm)
+        assert record.converged
+        assert rel(newton.U, fixed.U) < 1e-8
+        assert rel(newton.Lambda, fixed.Lambda) < 1e-8
+        assert rel(newton.info["T"], fixed.info["T"]) < 1e-8
+
+
+def test_tresca_on_the_contact_set_without_solution_stops():
+    """The case's Tresca bound (ω g where Λ > 0) at 1e8 Pa with a 1 mm slide, 8 × 8, where that law has no
+    solution (its fixed point cycles, ``test_tresca_newton``): the Newton does not loop, it stops with a reason
+    after a few iterations (measured: stalled after 11) and leaves the case to the fixed point's warning."""
+    _, qp, op, top, C, c, fac = panel()
+    law = np.stack([np.zeros(qp.m), top.tresca_bounds(op.weights, 1e8)], axis=1)
+    free = solve_active_set(qp, factorization=fac)
+    s = solve_friction_newton(qp, C, c, law, factorization=fac,
+                              initial=np.concatenate([free.Lambda, np.zeros(2 * qp.m)]))
+    assert s.info["fallback"] in ("cycle", "stalled", "iterations") and s.iterations <= 50
+
+
+def test_case_reports_the_newton():
+    """A Coulomb case (μ = 0.3, 1 mm slide) by the active set: the Newton solves it, no fixed point runs
+    (``fixed_point.iterations`` 0, ``contraction`` null), ``fixed_point.newton`` says so, and the friction and
+    normal forces equal the dual's fixed point's (measured 1e-11 relative)."""
+    slide = (1e-3, 0.0, 0.0)
+    a, d = (solve(case_from_dict(panel_dict(friction=0.3, slide=slide)), method=m).summary()["contact"][0]
+            for m in ("active-set", "dual"))
+    fp = a["friction"]["fixed_point"]
+    assert fp["newton"]["converged"] and fp["newton"]["fallback"] is None and fp["newton"]["iterations"] <= 15
+    assert fp["iterations"] == 0 and fp["contraction"] is None and fp["converged"]
+    assert "newton" not in d["friction"]["fixed_point"]
+    scale = np.linalg.norm(d["friction"]["force"])
+    assert np.linalg.norm(np.subtract(a["friction"]["force"], d["friction"]["force"])) < 1e-7 * scale
+    assert a["total_normal_force"] == pytest.approx(d["total_normal_force"], rel=1e-9)
+
+
+def test_polish_ends_the_fixed_point_on_the_law():
+    """Where the Newton from the frictionless start does not converge, the fixed point runs and, once its change
+    falls below 1 % of the bounds, a Newton from its iterate (``polish``) ends it: the result satisfies Coulomb's
+    law (residuals, bounds μ|∇Z|Λ of its own Λ) and equals the fixed point run to its end (to 1e-8). Forced
+    here by a polish from every iterate on the 8 × 8 panel, μ = 1."""
+    _, qp, op, top, C, c, fac = panel()
+    mu = 1.0
+    law = np.stack([mu * np.linalg.norm(op.grad, axis=0), np.zeros(qp.m)], axis=1)
+    tries: list[int] = []
+
+    def polish(sol):
+        out = solve_friction_newton(qp, C, c, law, factorization=fac, max_iterations=6,
+                                    initial=np.concatenate([sol.Lambda, sol.info["T"]]))
+        tries.append(out.iterations)
+        return out if out.info["fallback"] is None else None
+
+    bounds = lambda L: top.coulomb_bounds(op, L, mu)  # noqa: E731
+    polished, rp = solve_coulomb(qp, C, c, bounds, solve_tresca_newton, factorization=fac, cache={},
+                                 accelerate=True, warm=_warm, polish=polish)
+    full, rf = solve_coulomb(qp, C, c, bounds, solve_tresca_newton, factorization=fac, cache={}, accelerate=True,
+                             warm=_warm)
+    assert rp.converged and rf.converged and tries and rp.iterations <= rf.iterations
+    for name, value in polished.residuals.items():
+        assert value < 1e-9, name
+    assert rel(polished.U, full.U) < 1e-8 and rel(polished.info["T"], full.info["T"]) < 1e-8
