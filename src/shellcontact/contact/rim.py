@@ -51,6 +51,7 @@ MARGIN = 0.15  # the box extends the zone's extent by this fraction on each side
 MAX_BINS = 72  # line-force bins per rim line
 RIM_WIDTH = 3.0  # the rim's band: this many element widths (across the rim) from its shallowest point
 LINE_CONTACT = 0.7  # a thin zone whose force sits this deep (× half its width) or deeper is a line contact
+LINE_SAMPLES = 3  # a line load's samples along its length: at least this many
 OFFSET_WINDOW = 6.0  # the rim's offset from the outline: a hat this many element widths either side along the line
 
 
@@ -422,23 +423,26 @@ def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: 
         over = 0.5 * (length - (hi - lo))
         past = np.stack([c + (lo - over) * e, c + (hi + over) * e])
         length -= over * float(np.count_nonzero(~on_body(past)))
-    if not hi - lo > 0.0 or not half > 0.0:  # the forces at one point: one sample, the mean
-        sample = [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": total / length}]
-        return ({"length": length, "force": total, "area": zone_area, "peak_line_force": total / length,
-                 "mean_line_force": total / length, "samples": sample}, [np.stack([c, c])])
-    nb = int(min(MAX_BINS, max(1, round((hi - lo) / half))))
-    centres = lo + (np.arange(nb) + 0.5) * (hi - lo) / nb
-    d = np.abs(centres[:, None] - s[None, :])
-    kernel = np.clip(1.0 - d / half, 0.0, None) / half
-    # near the ends the kernel reaches past the line: divide by its part on the line
-    inside = np.clip(np.minimum(centres - lo, hi - centres) / half, 0.0, 1.0)
-    mass = 0.5 + inside - 0.5 * inside ** 2
-    density = kernel @ f / mass
+    # the line from its middle, its whole length: bins of about two element lengths, at least LINE_SAMPLES
+    mid = 0.5 * (lo + hi)
+    ends = (mid - 0.5 * length, mid + 0.5 * length)
+    nb = int(min(MAX_BINS, max(LINE_SAMPLES, round(length / half) if half > 0.0 else 0)))
+    centres = ends[0] + (np.arange(nb) + 0.5) * length / nb
+    if hi - lo > 0.0 and half > 0.0:  # the forces smoothed with a hat two element lengths wide
+        kernel = np.clip(1.0 - np.abs(centres[:, None] - s[None, :]) / half, 0.0, None)
+        # near the data's ends the kernel reaches past them: divide by its part within them
+        inside = np.clip(np.minimum(centres - lo, hi - centres) / half, 0.0, 1.0)
+        shape = kernel @ f / (0.5 + inside - 0.5 * inside ** 2)
+    else:  # the forces at one point: uniform along the strip round it
+        shape = np.ones(nb)
+    # scaled so that the line load integrates to the line's force (the hat's ends reach past the line)
+    density = shape * (total / length) / max(float(shape.mean()), 1e-300)
     line = c[None, :] + centres[:, None] * e[None, :]
     samples = [{"x": float(p[0]), "phi": float(math.degrees(p[1] / a)), "line_force": float(v)}
                for p, v in zip(line, density)]
     out = {"length": length, "force": total, "area": zone_area, "peak_line_force": float(density.max(initial=0.0)),
            "mean_line_force": total / length, "samples": samples}
+    lo, hi = ends
     return out, [np.stack([c + lo * e, c + hi * e])]
 
 
