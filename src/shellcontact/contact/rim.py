@@ -40,7 +40,7 @@ import numpy as np
 
 from ..shell.spaces import ShellSpace
 from .fixed_outline import class_field, fixed_punch_points, in_zone_facing_body
-from .interior import interior_split
+from .interior import RESOLVED, interior_split
 from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
@@ -52,6 +52,7 @@ MAX_BINS = 72  # line-force bins per rim line
 RIM_WIDTH = 3.0  # the rim's band: this many element widths (across the rim) from its shallowest point
 LINE_CONTACT = 0.7  # a thin zone whose force sits this deep (× half its width) or deeper is a line contact
 LINE_SAMPLES = 3  # a line load's samples along its length: at least this many
+RIM_SHARE = 0.4  # ... but at most this share of the depth from the rim's first point to the zone's deepest
 OFFSET_WINDOW = 6.0  # the rim's offset from the outline: a hat this many element widths either side along the line
 
 
@@ -228,6 +229,10 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     closure = (np.abs(mid[:, 0] - sh.x_min) <= tol) | (np.abs(mid[:, 0] - sh.x_max) <= tol)
     if not sh.full:
         closure |= (np.abs(mid[:, 1] - sh.s_min) <= tol) | (np.abs(mid[:, 1] - sh.s_max) <= tol)
+    # a hole round one idle row (none carrying inside) is below the mesh's resolution: no rim round it either
+    every = np.stack([x, a * phi], axis=1)
+    hole = np.array([_unresolved_hole(ln, pts, every) for ln in lines])
+    closure |= hole[seg_line]
     j, t, depth = _nearest_segment(pts, seg0, seg1)
     # a point as near to two stretches of the outline (the middle of a zone two elements wide, on a mirror-
     # symmetric mesh) belongs half to each: which one the order of the segments picked would break the mirror
@@ -261,7 +266,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     for i, ln in enumerate(lines):
         mine = np.flatnonzero(seg_line[j] == i)
         enclosed = _enclosed_area([ln])
-        if mine.size == 0 or not enclosed:
+        if mine.size == 0 or not enclosed or hole[i]:
             continue
         thickness = 2.0 * enclosed / line_len[i]
         mean_depth = float(np.sum(f[mine] * depth[mine]) / max(f[mine].sum(), 1e-300))
@@ -275,7 +280,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     # of a problem give mirror images of the rim)
     side = np.einsum("nk,nk->n", pts - (seg0[j] + t[:, None] * (seg1 - seg0)[j]), normal)
     size = float(np.median(np.maximum(across, along)))  # the window along the line: about one element
-    band = np.zeros(len(f), bool)
+    band, narrow = np.zeros(len(f), bool), np.zeros(len(f), bool)
     geometry = []
     for i, ln in enumerate(lines):
         closed = _round(ln, sh)
@@ -290,7 +295,16 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         first = _window_min(where[mine], where[big], depth[big], 2.0 * size, period)
         typical = float(np.median(first[np.isfinite(first)])) if np.isfinite(first).any() else 0.0
         rim_here = first <= 2.0 * typical + 2.0 * size  # a point whose shallowest neighbour lies deep: no rim there
-        band[mine] = rim_here & (depth[mine] <= first + RIM_WIDTH * across[mine])
+        width = RIM_WIDTH * across[mine]
+        if on_body is not None:
+            # a fixed punch's outline bounds where it carries, so on a zone only a few elements across (a saddle
+            # two elements wide) the band takes at most RIM_SHARE of the depth to the zone's middle (its deepest
+            # carrying point nearby): the rest is the interior's. (A moving punch's level line lies outside the
+            # contact by a finite distance, with lift-off inside it: there the depth is not the contact's width.)
+            deepest = -_window_min(where[mine], where[big], -depth[big], 2.0 * size, period)
+            width = np.minimum(width, RIM_SHARE * np.maximum(deepest - first, 0.0))
+        band[mine] = rim_here & (depth[mine] <= first + width)
+        narrow[mine] = width < RIM_WIDTH * across[mine]
         geometry.append((ln, mine, closed))
     # the band also holds the interior pressure over its width, O(h): it vanishes under refinement
     rim_force = float(f[band].sum())
@@ -357,6 +371,9 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     interior_area = max(zone_area - inner_area, 0.0)
     rest = ~band & ~is_line[seg_line[j]]  # the interior's carrying rows: not on the rim's band or a line load
     idle = np.stack([x[~carrying], a * phi[~carrying]], axis=1)
+    # a band narrowed to a share of the zone's depth holds the interior's pressure over a width that does not
+    # vanish as h does: where it holds most of the band's force, the interior is not resolved by this mesh
+    unresolved = float(f[band & narrow].sum()) > RESOLVED * float(f[band].sum())
     split = interior_split(pts[rest], f[rest], w[rest], np.maximum(across, along)[rest], idle,
                            lambda p, d: _width_across(space, p, d))
     out = {"kind": "line" if line_parts and not _geometry_has_force(geometry) else "area", "length": length,
@@ -364,8 +381,19 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
            "peak_line_force": peak, "mean_line_force": rim_force / length if length > 0 else 0.0,
            "lines": len(per_line), "interior_area": interior_area,
            "mean_interior_pressure": interior / interior_area if interior_area > 0 else 0.0, **split,
+           "interior_resolved": split["interior_resolved"] and not unresolved,
            "per_line": per_line, "samples": samples}
     return out, rim_lines
+
+
+def _unresolved_hole(line: np.ndarray, carrying: np.ndarray, rows: np.ndarray) -> bool:
+    """Whether a closed outline line is a hole round at most one row, none of them carrying: (n, 2) points."""
+    from matplotlib.path import Path as PolygonPath
+
+    if len(line) < 4 or not np.allclose(line[0], line[-1]):
+        return False
+    polygon = PolygonPath(line)
+    return not polygon.contains_points(carrying).any() and int(polygon.contains_points(rows).sum()) <= 1
 
 
 def _geometry_has_force(geometry: list) -> bool:
