@@ -303,7 +303,8 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
             # contact by a finite distance, with lift-off inside it: there the depth is not the contact's width.)
             deepest = -_window_min(where[mine], where[big], -depth[big], 2.0 * size, period)
             width = np.minimum(width, RIM_SHARE * np.maximum(deepest - first, 0.0))
-        band[mine] = rim_here & (depth[mine] <= first + width)
+        # (a row at the band's edge to round-off is in it: on a mirror-symmetric mesh its image is too)
+        band[mine] = rim_here & (depth[mine] <= first + width + 1e-6 * across[mine])
         narrow[mine] = width < RIM_WIDTH * across[mine]
         geometry.append((ln, mine, closed))
     # the band also holds the interior pressure over its width, O(h): it vanishes under refinement
