@@ -15,6 +15,10 @@ over regions of fixed physical size do, and these are what this module reports (
    the line) of the bin's shallowest carrying point, and the rim passes through the force-weighted centroid of
    the band (the outline moved inward by that offset, smoothed along the line). The rim's ``force`` is the sum
    over the bands; it includes the interior pressure over a band of width O(h), which vanishes under refinement.
+   For a fixed punch (whose outline bounds where it carries) the band takes at most RIM_SHARE of the depth to the
+   zone's deepest carrying point nearby (a saddle two elements wide keeps its middle rows interior); where that
+   narrowing holds most of the band's force, the interior is flagged unresolved (``interior_resolved``).
+   A closed outline round at most one idle row, none carrying inside, is below the mesh's resolution: no rim.
    ``length`` is the rim's length, ``mean_line_force`` = force / length; the line force along the rim
    (``samples``, ``peak_line_force``) is the band's forces smoothed with a hat kernel two element lengths wide
    along the line (the vertex and midpoint forces of a uniform load average out), per unit length of the rim.
@@ -27,7 +31,8 @@ over regions of fixed physical size do, and these are what this module reports (
    outline is a thin strip round the line, at least eight times longer than wide, with the force on its middle
    line. Then its whole force is a line load: its length is the strip's long side (of the rectangle with the
    strip's perimeter and enclosed area), and the samples run along the line's direction (the forces' principal
-   axis). ``per_line`` gives each line's kind, length, force and mean line force.
+   axis): at least LINE_SAMPLES bin centres over its length, scaled to integrate to its force. ``per_line``
+   gives each line's kind, length, force and mean line force.
 Lengths are measured on the middle surface (x, s = aφ).
 """
 
@@ -42,6 +47,7 @@ from ..shell.spaces import ShellSpace
 from .fixed_outline import class_field, fixed_punch_points, in_zone_facing_body
 from .interior import RESOLVED, interior_split
 from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
+from .outline_geometry import closes_on_itself, enclosed_area, perimeter_of, points_at, unresolved_hole, vertex_normals
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
 
@@ -106,8 +112,8 @@ def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi
     sh = space.mesh.shell
     box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
     # a cluster inside a thin strip of outline is on a line (a saddle's horn only two elements wide), not a point
-    areas = [_enclosed_area([ln]) for ln in lines]
-    wide = [ln for ln, area in zip(lines, areas) if area is None or _perimeter(ln) ** 2 < 32.0 * area]
+    areas = [enclosed_area([ln]) for ln in lines]
+    wide = [ln for ln, area in zip(lines, areas) if area is None or perimeter_of(ln) ** 2 < 32.0 * area]
     clusters = point_force_clusters(pts, force[carrying], width, wide, space.mesh.p, space.mesh.t, box)
     points = describe(space.mesh.shell, pts, force[carrying], clusters)
     for g in clusters:
@@ -231,7 +237,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         closure |= (np.abs(mid[:, 1] - sh.s_min) <= tol) | (np.abs(mid[:, 1] - sh.s_max) <= tol)
     # a hole round one idle row (none carrying inside) is below the mesh's resolution: no rim round it either
     every = np.stack([x, a * phi], axis=1)
-    hole = np.array([_unresolved_hole(ln, pts, every) for ln in lines])
+    hole = np.array([unresolved_hole(ln, pts, every) for ln in lines])
     closure |= hole[seg_line]
     j, t, depth = _nearest_segment(pts, seg0, seg1)
     # a point as near to two stretches of the outline (the middle of a zone two elements wide, on a mirror-
@@ -250,7 +256,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         j[better], t[better], depth[better] = keep[j2[better]], t2[better], d2[better]
     # the line's normal at each point's nearest point: the segment's, or at a vertex the mean of its two segments'
     # (a point nearest a corner has two nearest segments; this makes the choice not matter)
-    v_n = [_vertex_normals(ln, _round(ln, sh)) for ln in lines]
+    v_n = [vertex_normals(ln, closes_on_itself(ln, sh)) for ln in lines]
     n_start = np.concatenate([n[:-1] for n in v_n])
     n_end = np.concatenate([n[1:] for n in v_n])
     seg_dir = (seg1 - seg0) / np.maximum(seg_len, 1e-300)[:, None]
@@ -265,7 +271,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     is_line = np.zeros(len(lines), bool)
     for i, ln in enumerate(lines):
         mine = np.flatnonzero(seg_line[j] == i)
-        enclosed = _enclosed_area([ln])
+        enclosed = enclosed_area([ln])
         if mine.size == 0 or not enclosed or hole[i]:
             continue
         thickness = 2.0 * enclosed / line_len[i]
@@ -283,7 +289,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     band, narrow = np.zeros(len(f), bool), np.zeros(len(f), bool)
     geometry = []
     for i, ln in enumerate(lines):
-        closed = _round(ln, sh)
+        closed = closes_on_itself(ln, sh)
         mine = np.flatnonzero((seg_line[j] == i) & ~closure[j])
         if mine.size == 0 or is_line[i]:
             geometry.append((ln, None, closed))
@@ -318,7 +324,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         sel = mine[band[mine]] if mine is not None else np.zeros(0, int)
         # the rim: each point of the level line moved along its normal to the force-weighted mean offset of the
         # band within ± OFFSET_WINDOW elements (hat weights: the centroids scatter by a fraction of h)
-        n_v = _vertex_normals(ln, closed)
+        n_v = vertex_normals(ln, closed)
         num = _hat_sum(arc, where[sel], f[sel] * side[sel], OFFSET_WINDOW * size, period)
         den = _hat_sum(arc, where[sel], f[sel], OFFSET_WINDOW * size, period)
         has = den > 0
@@ -349,7 +355,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         centres = (np.arange(nb) + 0.5) * line_len[i] / nb
         density = _hat_sum(centres, where[sel], f[sel], half, period) / half
         density /= np.maximum(np.interp(centres, arc, stretch, period=period), 1e-12)
-        on_rim = _points_at(rim, np.interp(centres, arc, rim_arc))
+        on_rim = points_at(rim, np.interp(centres, arc, rim_arc))
         samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a) % 360.0 if sh.full
                                                  else math.degrees(c[1] / a)),
                      "line_force": float(v), "line": len(per_line) - 1} for c, v in zip(on_rim, density)]
@@ -385,16 +391,6 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
            "interior_resolved": split["interior_resolved"] and not unresolved,
            "per_line": per_line, "samples": samples}
     return out, rim_lines
-
-
-def _unresolved_hole(line: np.ndarray, carrying: np.ndarray, rows: np.ndarray) -> bool:
-    """Whether a closed outline line is a hole round at most one row, none of them carrying: (n, 2) points."""
-    from matplotlib.path import Path as PolygonPath
-
-    if len(line) < 4 or not np.allclose(line[0], line[-1]):
-        return False
-    polygon = PolygonPath(line)
-    return not polygon.contains_points(carrying).any() and int(polygon.contains_points(rows).sum()) <= 1
 
 
 def _geometry_has_force(geometry: list) -> bool:
@@ -533,47 +529,6 @@ def _width_across(space: ShellSpace, pts: np.ndarray, normal: np.ndarray) -> np.
         corners = m.p[:, m.t[:, space.locate(x, s)]]  # (2, 3, n)
         widths = np.maximum(widths, np.ptp(np.einsum("kcn,nk->cn", corners, normal), axis=0))
     return widths
-
-
-def _points_at(line: np.ndarray, arc: np.ndarray) -> np.ndarray:
-    """Points of a polyline at the given arc lengths."""
-    cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
-    return np.stack([np.interp(arc, cum, line[:, 0]), np.interp(arc, cum, line[:, 1])], axis=1)
-
-
-def _round(line: np.ndarray, shell) -> bool:
-    """Whether a polyline closes on itself, also across the seam φ = 0/360° of a full cylinder (a line round it)."""
-    if np.allclose(line[0], line[-1]):
-        return True
-    tol = 1e-9 * shell.radius
-    return bool(shell.full and abs(line[0, 0] - line[-1, 0]) <= tol
-                and abs(abs(line[0, 1] - line[-1, 1]) - 2.0 * np.pi * shell.radius) <= tol)
-
-
-def _vertex_normals(line: np.ndarray, closed: bool) -> np.ndarray:
-    """Unit left normals at a polyline's points: the mean of the two segments' at each inner point (the same
-    whichever way round the line is traced), of the one segment at an open line's ends."""
-    d = np.diff(line, axis=0)
-    d = d / np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
-    seg_n = np.stack([-d[:, 1], d[:, 0]], axis=1)
-    before = np.vstack([seg_n[-1:] if closed else seg_n[:1], seg_n])
-    after = np.vstack([seg_n, seg_n[:1] if closed else seg_n[-1:]])
-    n = before + after
-    return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-
-
-def _enclosed_area(lines: list[np.ndarray]) -> float | None:
-    """The area inside closed level lines (shoelace, signed so that holes subtract); None if one is open."""
-    total = 0.0
-    for ln in lines:
-        if not np.allclose(ln[0], ln[-1]):
-            return None
-        total += 0.5 * float(np.sum(ln[:-1, 0] * ln[1:, 1] - ln[1:, 0] * ln[:-1, 1]))
-    return abs(total)
-
-
-def _perimeter(line: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
 
 
 def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep: list[np.ndarray],
