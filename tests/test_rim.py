@@ -204,9 +204,9 @@ def test_vessel_saddles_bear_on_their_horns_as_line_loads_without_spikes(vessel)
     body's edge) as line loads, and on the rim of the bottom region. Measured per saddle: horns 8 008 N each
     (23.6 % of the saddle's force) over the saddle's width 0.3 m (to 1e-15; the strip round the row reaches half
     a point spacing past the faces, 0.364 m, which the line's ends on the body's edges take off), no point forces;
-    the area rims' line force max/mean 2.13 (2.32 before the band was narrowed to the saddle's faces; bound 5). Before: the outline was noisy loops inside the cradle,
-    max/mean 9.95 (a 30.7 kN/m spike), and treating the horn rows as alone in their outline made them 2 x 8 kN
-    point forces."""
+    the area rims' line force max/mean 2.13 (2.32 before the band was narrowed to the saddle's faces; bound 5).
+    Before: the outline was noisy loops inside the cradle, max/mean 9.95 (a 30.7 kN/m spike), and treating the
+    horn rows as alone in their outline made them 2 x 8 kN point forces."""
     for e in vessel.summary()["contact"]:
         rim = e["rim"]
         assert rim["point_forces"] == [] and rim["point_force"] == 0.0
