@@ -15,6 +15,10 @@ over regions of fixed physical size do, and these are what this module reports (
    the line) of the bin's shallowest carrying point, and the rim passes through the force-weighted centroid of
    the band (the outline moved inward by that offset, smoothed along the line). The rim's ``force`` is the sum
    over the bands; it includes the interior pressure over a band of width O(h), which vanishes under refinement.
+   For a fixed punch (whose outline bounds where it carries) the band takes at most RIM_SHARE of the depth to the
+   zone's deepest carrying point nearby (a saddle two elements wide keeps its middle rows interior); where that
+   narrowing holds most of the band's force, the interior is flagged unresolved (``interior_resolved``).
+   A closed outline round at most one idle row, none carrying inside, is below the mesh's resolution: no rim.
    ``length`` is the rim's length, ``mean_line_force`` = force / length; the line force along the rim
    (``samples``, ``peak_line_force``) is the band's forces smoothed with a hat kernel two element lengths wide
    along the line (the vertex and midpoint forces of a uniform load average out), per unit length of the rim.
@@ -27,7 +31,8 @@ over regions of fixed physical size do, and these are what this module reports (
    outline is a thin strip round the line, at least eight times longer than wide, with the force on its middle
    line. Then its whole force is a line load: its length is the strip's long side (of the rectangle with the
    strip's perimeter and enclosed area), and the samples run along the line's direction (the forces' principal
-   axis). ``per_line`` gives each line's kind, length, force and mean line force.
+   axis): at least LINE_SAMPLES bin centres over its length, scaled to integrate to its force. ``per_line``
+   gives each line's kind, length, force and mean line force.
 Lengths are measured on the middle surface (x, s = aφ).
 """
 
@@ -40,8 +45,9 @@ import numpy as np
 
 from ..shell.spaces import ShellSpace
 from .fixed_outline import class_field, fixed_punch_points, in_zone_facing_body
-from .interior import interior_split
+from .interior import RESOLVED, interior_split
 from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
+from .outline_geometry import closes_on_itself, enclosed_area, perimeter_of, points_at, unresolved_hole, vertex_normals
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
 
@@ -51,6 +57,8 @@ MARGIN = 0.15  # the box extends the zone's extent by this fraction on each side
 MAX_BINS = 72  # line-force bins per rim line
 RIM_WIDTH = 3.0  # the rim's band: this many element widths (across the rim) from its shallowest point
 LINE_CONTACT = 0.7  # a thin zone whose force sits this deep (× half its width) or deeper is a line contact
+LINE_SAMPLES = 3  # a line load's samples along its length: at least this many
+RIM_SHARE = 0.4  # ... but at most this share of the depth from the rim's first point to the zone's deepest
 OFFSET_WINDOW = 6.0  # the rim's offset from the outline: a hat this many element widths either side along the line
 
 
@@ -104,8 +112,8 @@ def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi
     sh = space.mesh.shell
     box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
     # a cluster inside a thin strip of outline is on a line (a saddle's horn only two elements wide), not a point
-    areas = [_enclosed_area([ln]) for ln in lines]
-    wide = [ln for ln, area in zip(lines, areas) if area is None or _perimeter(ln) ** 2 < 32.0 * area]
+    areas = [enclosed_area([ln]) for ln in lines]
+    wide = [ln for ln, area in zip(lines, areas) if area is None or perimeter_of(ln) ** 2 < 32.0 * area]
     clusters = point_force_clusters(pts, force[carrying], width, wide, space.mesh.p, space.mesh.t, box)
     points = describe(space.mesh.shell, pts, force[carrying], clusters)
     for g in clusters:
@@ -227,6 +235,10 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     closure = (np.abs(mid[:, 0] - sh.x_min) <= tol) | (np.abs(mid[:, 0] - sh.x_max) <= tol)
     if not sh.full:
         closure |= (np.abs(mid[:, 1] - sh.s_min) <= tol) | (np.abs(mid[:, 1] - sh.s_max) <= tol)
+    # a hole round one idle row (none carrying inside) is below the mesh's resolution: no rim round it either
+    every = np.stack([x, a * phi], axis=1)
+    hole = np.array([unresolved_hole(ln, pts, every) for ln in lines])
+    closure |= hole[seg_line]
     j, t, depth = _nearest_segment(pts, seg0, seg1)
     # a point as near to two stretches of the outline (the middle of a zone two elements wide, on a mirror-
     # symmetric mesh) belongs half to each: which one the order of the segments picked would break the mirror
@@ -244,7 +256,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         j[better], t[better], depth[better] = keep[j2[better]], t2[better], d2[better]
     # the line's normal at each point's nearest point: the segment's, or at a vertex the mean of its two segments'
     # (a point nearest a corner has two nearest segments; this makes the choice not matter)
-    v_n = [_vertex_normals(ln, _round(ln, sh)) for ln in lines]
+    v_n = [vertex_normals(ln, closes_on_itself(ln, sh)) for ln in lines]
     n_start = np.concatenate([n[:-1] for n in v_n])
     n_end = np.concatenate([n[1:] for n in v_n])
     seg_dir = (seg1 - seg0) / np.maximum(seg_len, 1e-300)[:, None]
@@ -259,8 +271,8 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     is_line = np.zeros(len(lines), bool)
     for i, ln in enumerate(lines):
         mine = np.flatnonzero(seg_line[j] == i)
-        enclosed = _enclosed_area([ln])
-        if mine.size == 0 or not enclosed:
+        enclosed = enclosed_area([ln])
+        if mine.size == 0 or not enclosed or hole[i]:
             continue
         thickness = 2.0 * enclosed / line_len[i]
         mean_depth = float(np.sum(f[mine] * depth[mine]) / max(f[mine].sum(), 1e-300))
@@ -274,10 +286,10 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     # of a problem give mirror images of the rim)
     side = np.einsum("nk,nk->n", pts - (seg0[j] + t[:, None] * (seg1 - seg0)[j]), normal)
     size = float(np.median(np.maximum(across, along)))  # the window along the line: about one element
-    band = np.zeros(len(f), bool)
+    band, narrow = np.zeros(len(f), bool), np.zeros(len(f), bool)
     geometry = []
     for i, ln in enumerate(lines):
-        closed = _round(ln, sh)
+        closed = closes_on_itself(ln, sh)
         mine = np.flatnonzero((seg_line[j] == i) & ~closure[j])
         if mine.size == 0 or is_line[i]:
             geometry.append((ln, None, closed))
@@ -289,7 +301,17 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         first = _window_min(where[mine], where[big], depth[big], 2.0 * size, period)
         typical = float(np.median(first[np.isfinite(first)])) if np.isfinite(first).any() else 0.0
         rim_here = first <= 2.0 * typical + 2.0 * size  # a point whose shallowest neighbour lies deep: no rim there
-        band[mine] = rim_here & (depth[mine] <= first + RIM_WIDTH * across[mine])
+        width = RIM_WIDTH * across[mine]
+        if on_body is not None:
+            # a fixed punch's outline bounds where it carries, so on a zone only a few elements across (a saddle
+            # two elements wide) the band takes at most RIM_SHARE of the depth to the zone's middle (its deepest
+            # carrying point nearby): the rest is the interior's. (A moving punch's level line lies outside the
+            # contact by a finite distance, with lift-off inside it: there the depth is not the contact's width.)
+            deepest = -_window_min(where[mine], where[big], -depth[big], 2.0 * size, period)
+            width = np.minimum(width, RIM_SHARE * np.maximum(deepest - first, 0.0))
+        # (a row at the band's edge to round-off is in it: on a mirror-symmetric mesh its image is too)
+        band[mine] = rim_here & (depth[mine] <= first + width + 1e-6 * across[mine])
+        narrow[mine] = width < RIM_WIDTH * across[mine]
         geometry.append((ln, mine, closed))
     # the band also holds the interior pressure over its width, O(h): it vanishes under refinement
     rim_force = float(f[band].sum())
@@ -302,7 +324,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         sel = mine[band[mine]] if mine is not None else np.zeros(0, int)
         # the rim: each point of the level line moved along its normal to the force-weighted mean offset of the
         # band within ± OFFSET_WINDOW elements (hat weights: the centroids scatter by a fraction of h)
-        n_v = _vertex_normals(ln, closed)
+        n_v = vertex_normals(ln, closed)
         num = _hat_sum(arc, where[sel], f[sel] * side[sel], OFFSET_WINDOW * size, period)
         den = _hat_sum(arc, where[sel], f[sel], OFFSET_WINDOW * size, period)
         has = den > 0
@@ -333,7 +355,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         centres = (np.arange(nb) + 0.5) * line_len[i] / nb
         density = _hat_sum(centres, where[sel], f[sel], half, period) / half
         density /= np.maximum(np.interp(centres, arc, stretch, period=period), 1e-12)
-        on_rim = _points_at(rim, np.interp(centres, arc, rim_arc))
+        on_rim = points_at(rim, np.interp(centres, arc, rim_arc))
         samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a) % 360.0 if sh.full
                                                  else math.degrees(c[1] / a)),
                      "line_force": float(v), "line": len(per_line) - 1} for c, v in zip(on_rim, density)]
@@ -356,6 +378,9 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     interior_area = max(zone_area - inner_area, 0.0)
     rest = ~band & ~is_line[seg_line[j]]  # the interior's carrying rows: not on the rim's band or a line load
     idle = np.stack([x[~carrying], a * phi[~carrying]], axis=1)
+    # a band narrowed to a share of the zone's depth holds the interior's pressure over a width that does not
+    # vanish as h does: where it holds most of the band's force, the interior is not resolved by this mesh
+    unresolved = float(f[band & narrow].sum()) > RESOLVED * float(f[band].sum())
     split = interior_split(pts[rest], f[rest], w[rest], np.maximum(across, along)[rest], idle,
                            lambda p, d: _width_across(space, p, d))
     out = {"kind": "line" if line_parts and not _geometry_has_force(geometry) else "area", "length": length,
@@ -363,6 +388,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
            "peak_line_force": peak, "mean_line_force": rim_force / length if length > 0 else 0.0,
            "lines": len(per_line), "interior_area": interior_area,
            "mean_interior_pressure": interior / interior_area if interior_area > 0 else 0.0, **split,
+           "interior_resolved": split["interior_resolved"] and not unresolved,
            "per_line": per_line, "samples": samples}
     return out, rim_lines
 
@@ -422,23 +448,26 @@ def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: 
         over = 0.5 * (length - (hi - lo))
         past = np.stack([c + (lo - over) * e, c + (hi + over) * e])
         length -= over * float(np.count_nonzero(~on_body(past)))
-    if not hi - lo > 0.0 or not half > 0.0:  # the forces at one point: one sample, the mean
-        sample = [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a)), "line_force": total / length}]
-        return ({"length": length, "force": total, "area": zone_area, "peak_line_force": total / length,
-                 "mean_line_force": total / length, "samples": sample}, [np.stack([c, c])])
-    nb = int(min(MAX_BINS, max(1, round((hi - lo) / half))))
-    centres = lo + (np.arange(nb) + 0.5) * (hi - lo) / nb
-    d = np.abs(centres[:, None] - s[None, :])
-    kernel = np.clip(1.0 - d / half, 0.0, None) / half
-    # near the ends the kernel reaches past the line: divide by its part on the line
-    inside = np.clip(np.minimum(centres - lo, hi - centres) / half, 0.0, 1.0)
-    mass = 0.5 + inside - 0.5 * inside ** 2
-    density = kernel @ f / mass
+    # the line from its middle, its whole length: bins of about two element lengths, at least LINE_SAMPLES
+    mid = 0.5 * (lo + hi)
+    ends = (mid - 0.5 * length, mid + 0.5 * length)
+    nb = int(min(MAX_BINS, max(LINE_SAMPLES, round(length / half) if half > 0.0 else 0)))
+    centres = ends[0] + (np.arange(nb) + 0.5) * length / nb
+    if hi - lo > 0.0 and half > 0.0:  # the forces smoothed with a hat two element lengths wide
+        kernel = np.clip(1.0 - np.abs(centres[:, None] - s[None, :]) / half, 0.0, None)
+        # near the data's ends the kernel reaches past them: divide by its part within them
+        inside = np.clip(np.minimum(centres - lo, hi - centres) / half, 0.0, 1.0)
+        shape = kernel @ f / (0.5 + inside - 0.5 * inside ** 2)
+    else:  # the forces at one point: uniform along the strip round it
+        shape = np.ones(nb)
+    # scaled so that the line load integrates to the line's force (the hat's ends reach past the line)
+    density = shape * (total / length) / max(float(shape.mean()), 1e-300)
     line = c[None, :] + centres[:, None] * e[None, :]
     samples = [{"x": float(p[0]), "phi": float(math.degrees(p[1] / a)), "line_force": float(v)}
                for p, v in zip(line, density)]
     out = {"length": length, "force": total, "area": zone_area, "peak_line_force": float(density.max(initial=0.0)),
            "mean_line_force": total / length, "samples": samples}
+    lo, hi = ends
     return out, [np.stack([c + lo * e, c + hi * e])]
 
 
@@ -500,47 +529,6 @@ def _width_across(space: ShellSpace, pts: np.ndarray, normal: np.ndarray) -> np.
         corners = m.p[:, m.t[:, space.locate(x, s)]]  # (2, 3, n)
         widths = np.maximum(widths, np.ptp(np.einsum("kcn,nk->cn", corners, normal), axis=0))
     return widths
-
-
-def _points_at(line: np.ndarray, arc: np.ndarray) -> np.ndarray:
-    """Points of a polyline at the given arc lengths."""
-    cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
-    return np.stack([np.interp(arc, cum, line[:, 0]), np.interp(arc, cum, line[:, 1])], axis=1)
-
-
-def _round(line: np.ndarray, shell) -> bool:
-    """Whether a polyline closes on itself, also across the seam φ = 0/360° of a full cylinder (a line round it)."""
-    if np.allclose(line[0], line[-1]):
-        return True
-    tol = 1e-9 * shell.radius
-    return bool(shell.full and abs(line[0, 0] - line[-1, 0]) <= tol
-                and abs(abs(line[0, 1] - line[-1, 1]) - 2.0 * np.pi * shell.radius) <= tol)
-
-
-def _vertex_normals(line: np.ndarray, closed: bool) -> np.ndarray:
-    """Unit left normals at a polyline's points: the mean of the two segments' at each inner point (the same
-    whichever way round the line is traced), of the one segment at an open line's ends."""
-    d = np.diff(line, axis=0)
-    d = d / np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
-    seg_n = np.stack([-d[:, 1], d[:, 0]], axis=1)
-    before = np.vstack([seg_n[-1:] if closed else seg_n[:1], seg_n])
-    after = np.vstack([seg_n, seg_n[:1] if closed else seg_n[-1:]])
-    n = before + after
-    return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-
-
-def _enclosed_area(lines: list[np.ndarray]) -> float | None:
-    """The area inside closed level lines (shoelace, signed so that holes subtract); None if one is open."""
-    total = 0.0
-    for ln in lines:
-        if not np.allclose(ln[0], ln[-1]):
-            return None
-        total += 0.5 * float(np.sum(ln[:-1, 0] * ln[1:, 1] - ln[1:, 0] * ln[:-1, 1]))
-    return abs(total)
-
-
-def _perimeter(line: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
 
 
 def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep: list[np.ndarray],
