@@ -25,14 +25,13 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import scipy.linalg as la
 import scipy.sparse as sp
 
 from ..linalg import Factorization
 from .qp import ContactQP, ContactSolution, check_arguments
 from .schur import Workspace, deepest_violations, default_growth
 from .tresca import friction_residuals
-from .tresca_newton import _FLOOR, PATIENCE, _pair_products, _solve_equilibrated, _system, _tangential_ncp
+from .tresca_newton import SetWatch, _pair_products, _solve_equilibrated, _system, _tangential_ncp
 
 #: the most penetrated rows that join the closed set per iteration. Each joins with its friction at the bound
 #: (slip), and the friction's moment through the Kirchhoff offset lifts its neighbours: on the 32 × 32 panel
@@ -70,9 +69,7 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
     growth = default_growth(ws)
     tscale = float(law[:, 1].max(initial=0.0))
     history: list = []
-    seen: dict = {}
-    last = None
-    best, since_best = np.inf, 0
+    watch = SetWatch(tol)
     fallback = None
     g = np.zeros(m)
     it = 0
@@ -133,19 +130,8 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
                         "tangential": state["tangential"]})
         if resid <= tol:
             break
-        if key == last:  # the sets held: Newton on the slip directions and bounds, quadratic until round-off
-            if history[-2]["residual"] <= resid:
-                fallback = None if resid <= _FLOOR * tol else "stalled"
-                break
-        elif key in seen and seen[key] <= resid:  # a cycle of sets
-            fallback = "cycle"
-            break
-        seen[key] = resid
-        last = key
-        if resid < best:
-            best, since_best = resid, 0
-        elif (since_best := since_best + 1) >= PATIENCE:
-            fallback = "stalled"
+        stop, fallback = watch.stop(key, resid)  # the same rule as the Tresca Newton
+        if stop:
             break
         J, rhs = _system(ws, A, BXp, SPP, Lam, Tp, gap, sig)
         k = A.size
@@ -163,12 +149,8 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
             rows[:, at[j]] -= a * z[j]  # g_j = a_j Λ_j + t_j on the closed set
             rhs[r] = M @ Tp[j] - N @ sig[j] - a * z[j] * Lam[pairs[j]] - Fj - N @ rhs[r]
             J[r] = rows
-        try:
-            y = _solve_equilibrated(J, rhs)
-        except (la.LinAlgError, ValueError):
-            fallback = "singular"
-            break
-        if not np.all(np.isfinite(y)):
+        y = _solve_equilibrated(J, rhs)
+        if y is None:
             fallback = "singular"
             break
         Lam_new = np.zeros(m)

@@ -51,6 +51,38 @@ _FLOOR = 1e3
 RISES = 3
 
 
+class SetWatch:
+    """When a primal–dual active-set Newton stops short of ``tol`` (``stop`` gives why, or None while it goes on):
+    the sets held and the residual rose ``RISES`` times in a row (``"stalled"``, or converged where it sits at its
+    round-off, ``_FLOOR`` × tol: with the sets held it is Newton on the slip directions, quadratic until
+    round-off, but its residual may rise a step or two before — the vessel on saddles, 454 sliding pairs: 1.2e-3,
+    5.7e-3, 4.0e-5, 3.4e-4, 1.4e-8, 6.9e-12; stopping at the first rise, the dual took 789 steps); the sets
+    returned to earlier ones without a smaller residual (``"cycle"``: a revisit with a smaller residual is not
+    one, the slip directions differ); or ``PATIENCE`` iterations without a new smallest residual."""
+
+    def __init__(self, tol: float) -> None:
+        self.tol, self.seen, self.last = tol, {}, None
+        self.best, self.since_best, self.rises, self.previous = np.inf, 0, 0, np.inf
+
+    def stop(self, key: tuple, resid: float) -> tuple[bool, str | None]:
+        """(stop, why: None where it stops converged)."""
+        previous, self.previous = self.previous, resid
+        if key == self.last:
+            self.rises = self.rises + 1 if previous <= resid else 0
+            if self.rises and (resid <= _FLOOR * self.tol or self.rises > RISES):
+                return True, None if resid <= _FLOOR * self.tol else "stalled"
+        elif key in self.seen and self.seen[key] <= resid:
+            return True, "cycle"
+        self.seen[key], self.last = resid, key
+        if resid < self.best:
+            self.best, self.since_best = resid, 0
+        else:
+            self.since_best += 1
+            if self.since_best >= PATIENCE:
+                return True, "stalled"
+        return False, None
+
+
 def _pair_products(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, ws: Workspace,
                    cache: dict) -> tuple[np.ndarray, np.ndarray]:
     """B A⁻¹C_Pᵀ (m × 2p) and C_P A⁻¹C_Pᵀ (2p × 2p) for the pairs P = ``pairs``. A⁻¹C_jᵀ is solved once per pair
@@ -117,12 +149,16 @@ def _system(ws: Workspace, A: np.ndarray, BXp: np.ndarray, SPP: np.ndarray, Lam:
     return J, rhs
 
 
-def _solve_equilibrated(J: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+def _solve_equilibrated(J: np.ndarray, rhs: np.ndarray) -> np.ndarray | None:
     """J y = rhs, equilibrated: the gap rows (m/N) and the slip rows (N) differ by ~1e12, which LU's pivoting
-    mixes (unequilibrated, the steps stalled at 3e-5 relative on the 8 × 8 panel)."""
+    mixes (unequilibrated, the steps stalled at 3e-5 relative on the 8 × 8 panel). None where J is singular."""
     rs = 1.0 / np.maximum(np.abs(J).max(axis=1, initial=0.0), 1e-300)
     cs = 1.0 / np.maximum(np.abs(J * rs[:, None]).max(axis=0, initial=0.0), 1e-300)
-    return cs * la.lu_solve(la.lu_factor(J * rs[:, None] * cs), rhs * rs)
+    try:
+        y = cs * la.lu_solve(la.lu_factor(J * rs[:, None] * cs), rhs * rs)
+    except (la.LinAlgError, ValueError):
+        return None
+    return y if np.all(np.isfinite(y)) else None
 
 
 def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, tol: float = 1e-10,
@@ -160,10 +196,7 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     T = np.zeros(2 * m) if initial is None else np.asarray(initial[m:3 * m], float).copy()
     T.reshape(-1, 2)[~candidates] = 0.0
     history: list = []
-    seen: dict = {}
-    last = None
-    best, since_best = np.inf, 0
-    rises = 0
+    watch = SetWatch(tol)
     fallback = None
     it = 0
     for it in range(1, max_iterations + 1):
@@ -195,22 +228,8 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
                         "slip": int(slip.sum()), "residual": resid})
         if resid <= tol:
             break
-        if key == last:  # the sets held: Newton on the slip directions, quadratic until round-off; its residual
-            # may rise a step or two before (the vessel on saddles, 454 sliding pairs: 1.2e-3, 5.7e-3, 4.0e-5, 3.4e-4,
-            # 1.4e-8, 6.9e-12), so it stops after ``RISES`` rises in a row (at the first, the dual took 789 steps)
-            rises = rises + 1 if history[-2]["residual"] <= resid else 0
-            if rises and (resid <= _FLOOR * tol or rises > RISES):
-                fallback = None if resid <= _FLOOR * tol else "stalled"
-                break
-        elif key in seen and seen[key] <= resid:  # a cycle of sets (a revisit with a smaller residual is not:
-            fallback = "cycle"  # the slip directions differ)
-            break
-        seen[key] = resid
-        last = key
-        if resid < best:
-            best, since_best = resid, 0
-        elif (since_best := since_best + 1) >= PATIENCE:
-            fallback = "stalled"
+        stop, fallback = watch.stop(key, resid)
+        if stop:
             break
         A = np.flatnonzero(closed)
         J, rhs = _system(ws, A, BXp, SPP, Lam, Tp, gap, sig, None if E is None else E[_pair_rows(pairs)], delta)
@@ -227,9 +246,8 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
             rows[:, k + 2 * j:k + 2 * j + 2] += M
             rhs[r] = M @ Tp[j] - N @ sig[j] - Fj - N @ rhs[r]
             J[r] = rows
-        try:
-            y = _solve_equilibrated(J, rhs)
-        except (la.LinAlgError, ValueError):
+        y = _solve_equilibrated(J, rhs)
+        if y is None:
             fallback = "singular"
             break
         Lam = np.zeros(m)
