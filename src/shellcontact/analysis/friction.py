@@ -205,31 +205,30 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
         return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
 
     E = _slip_columns(d, qp, top)
+    held = not np.all(normal_part(qp)[1])  # rigid motions only friction holds (``_frictionless_start``)
     start, newton, polish = None, None, None
+
+    def warm(sol: ContactSolution) -> dict:
+        return {"initial": _warm_start(sol)}
+
     if opts.method == "active-set":
         # the pipeline's factorisation solves A whether or not it is bordered by the screened rows
         options: dict[str, Any] = {"factorization": setup.factorization, "tol": opts.tolerance, "cache": {}}
         tresca, fixed_tol = solve_tresca_newton, COULOMB_TOL
         # the frictionless solve of the pipeline, screened, is the start; every Tresca solve runs on the screened
         # rows with its dense Schur complement (not with motions only friction holds: ``_frictionless_start``)
-        if setup.screen is not None and qp is setup.qp and np.all(normal_part(qp)[1]):
-            start = solve_screened(qp, setup.screen, solve_active_set, setup.factorization, tol=opts.tolerance,
-                                   initial_active=setup.initial_active)
-            start.info.update(T=np.zeros(2 * qp.m), bounds=np.zeros(qp.m))
+        if setup.screen is not None and qp is setup.qp and not held:
+            start = _frictionless(solve_screened(qp, setup.screen, solve_active_set, setup.factorization,
+                                                 tol=opts.tolerance, initial_active=setup.initial_active))
             options["screen"], options["solver"] = setup.screen, solve_tresca_newton
             tresca = solve_tresca_screened
-
-        def warm(sol: ContactSolution) -> dict:
-            return {"initial": _warm_start(sol)}
 
         law = np.stack([mu * scale, tresca_g], axis=1)
         if np.any(mu > 0) and E is None:  # the whole law by Newton (Coulomb without δ; the case's Tresca
             # keeps the fixed point: its bound jumps with the closed set, docs/theory.md §9a)
             if start is None:
-                start = solve_active_set(qp, tol=opts.tolerance, factorization=setup.factorization)
-                start.info.update(T=np.zeros(2 * qp.m), bounds=np.zeros(qp.m))
-            sol, fallback = _newton(qp, C, c, law, options, np.concatenate([start.Lambda, np.zeros(2 * qp.m)]),
-                                    NEWTON_ITERATIONS)
+                start = _frictionless(solve_active_set(qp, tol=opts.tolerance, factorization=setup.factorization))
+            sol, fallback = _newton(qp, C, c, law, options, _warm_start(start), NEWTON_ITERATIONS)
             newton = {"iterations": int(sol.iterations), "converged": fallback is None, "fallback": fallback,
                       "polish_iterations": []}
             if fallback is None:
@@ -238,8 +237,7 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
                   f"{sol.iterations} iterations; the fixed point of Tresca problems follows", file=sys.stderr)
 
             def polish(s: ContactSolution) -> ContactSolution | None:
-                y = np.concatenate([s.Lambda, s.info["T"]])
-                out, failed = _newton(qp, C, c, law, options, y, POLISH_ITERATIONS)
+                out, failed = _newton(qp, C, c, law, options, _warm_start(s), POLISH_ITERATIONS)
                 newton["polish_iterations"].append(int(out.iterations))
                 return out if failed is None else None
     elif opts.method == "penalty":
@@ -252,18 +250,21 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
         fac = setup.factorization if setup.screen is None else factorize(qp.A)
         options = {"factorization": fac, "tol": opts.tolerance, "cache": {}}
         tresca, fixed_tol = solve_tresca_dual, COULOMB_TOL
-
-        def warm(sol: ContactSolution) -> dict:
-            return {"initial": _warm_start(sol)}
     if E is not None:
         options["E"] = E
         tresca = _held(tresca, qp, E, d, case)
-        if start is None and not np.all(normal_part(qp)[1]):  # the frictionless start without the motions only
-            start = _frictionless_start(qp, C, c, E, tresca, options)  # friction holds (their amounts: 0)
+        if start is None and held:  # the frictionless start without the motions only friction holds (amounts 0)
+            start = _frictionless_start(qp, C, c, E, tresca, options)
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, start=start,
                                 accelerate=bool(np.any(mu > 0)), polish=polish, **options)  # Coulomb: Anderson's mixing
     record.newton = newton
     return sol, record, top
+
+
+def _frictionless(sol: ContactSolution) -> ContactSolution:
+    """A frictionless contact solution as a friction solve's start: T = 0 and bounds 0 on every row."""
+    sol.info.update(T=np.zeros(2 * sol.Lambda.size), bounds=np.zeros(sol.Lambda.size))
+    return sol
 
 
 def _warm_start(sol: ContactSolution) -> np.ndarray:
