@@ -240,9 +240,7 @@ def dual_core(
                 if gtr[ws.live].min(initial=0.0) >= -tol * ws.length_scale(gtr):
                     history.append({"iteration": it0 + total, "outer": outer, "step": "polish", "free": int(idx.size)})
                     return trial, d, total
-        # against the problem's force scale too (``kkt``): with P = 0 and Λ = 0 the gross force is round-off
-        fb = np.linalg.norm(D.T @ lam + P) / max(np.linalg.norm(P), np.linalg.norm(abs(D).T @ lam),
-                                                 ws.force_scale(ws.gap(lam, delta)))
+        fb = _force_balance(ws, lam, delta)
         history.append({"iteration": it0 + total, "outer": outer, "force_balance": float(fb)})
         if fb <= tol:
             return lam, delta, total
@@ -255,6 +253,14 @@ def dual_core(
     )
 
 
+def _force_balance(ws: Workspace, lam: np.ndarray, delta: np.ndarray) -> float:
+    """‖DᵀΛ + P‖ over its gross size, as ``kkt``'s force_balance: against the problem's force scale too, since
+    with P = 0 and Λ = 0 the gross force is round-off."""
+    D, P = ws.qp.D, ws.qp.P
+    return float(np.linalg.norm(D.T @ lam + P) / max(np.linalg.norm(P), np.linalg.norm(abs(D).T @ lam),
+                                                     ws.force_scale(ws.gap(lam, delta))))
+
+
 def _dual_residuals(ws: Workspace, lam: np.ndarray, delta: np.ndarray | None) -> dict[str, float]:
     g = ws.gap(lam, delta)
     out = {
@@ -263,7 +269,7 @@ def _dual_residuals(ws: Workspace, lam: np.ndarray, delta: np.ndarray | None) ->
         "dual_feasibility": float(max(0.0, -lam.min(initial=0.0))),
     }
     if delta is not None:
-        out["force_balance"] = float(np.linalg.norm(ws.qp.D.T @ lam + ws.qp.P))
+        out["force_balance"] = _force_balance(ws, lam, delta)
     return out
 
 
