@@ -94,6 +94,7 @@ def test_panel_decomposition(panel_levels):
     for e in panel_levels:
         rim, zone = e["rim"], e["zone"]
         assert rim["kind"] == "area" and rim["lines"] == 1 and rim["samples"]
+        assert rim["line_loads"]["force"] == 0.0  # no line contact on the panel
         assert rim["force"] + rim["interior_force"] + rim["point_force"] == pytest.approx(e["total_normal_force"],
                                                                                           rel=1e-12)
         assert rim["point_forces"] == []
@@ -119,13 +120,14 @@ def test_plates_on_a_pipe_carry_the_line_load_F_over_L():
     res = shellcontact.solve(load_case(EXAMPLES / "ring_stiffness.toml"))
     L = res.case.shell.length
     for e in res.summary()["contact"]:
-        rim = e["rim"]
+        rim, loads = e["rim"], e["rim"]["line_loads"]
         expected = e["total_normal_force"] / L
-        print(f"\n plate: line load {rim['mean_line_force']:.6g} N/m, F/L {expected:.6g} N/m, "
+        print(f"\n plate: line load {loads['mean_line_force']:.6g} N/m, F/L {expected:.6g} N/m, "
               f"samples {[round(s['line_force'], 2) for s in rim['samples']]}")
         assert rim["kind"] == "line" and rim["lines"] == 1
-        assert rim["mean_line_force"] == pytest.approx(expected, rel=1e-6)
-        assert rim["length"] == pytest.approx(L, rel=1e-6)
+        assert loads["mean_line_force"] == pytest.approx(expected, rel=1e-6)
+        assert loads["length"] == pytest.approx(L, rel=1e-6)
+        assert rim["force"] == rim["length"] == rim["mean_line_force"] == 0.0  # no area rim: nothing mixed in
         values = [s["line_force"] for s in rim["samples"]]
         assert len(values) >= 3 and max(values) / min(values) - 1 <= 1e-3  # no vertex/midpoint zig-zag
         # all of it on the line: the interior is the round-off of total − line force (measured 2.8e-14 N of 200 N)
@@ -175,7 +177,8 @@ def test_band_rim_runs_round_the_pipe():
     print(f"\n band clamp: rim {rim['length']:.6f} m = {circles:.5f} circles, {rim['lines']} lines, "
           f"rim force {rim['force']:.6g} of {e['total_normal_force']:.6g}")
     assert circles == pytest.approx(round(circles), abs=1e-3) and round(circles) >= 2
-    assert rim["force"] + rim["interior_force"] == pytest.approx(e["total_normal_force"], rel=1e-12)
+    assert rim["force"] + rim["line_loads"]["force"] + rim["interior_force"] == pytest.approx(
+        e["total_normal_force"], rel=1e-12)
 
 
 @pytest.fixture(scope="module")
@@ -278,7 +281,7 @@ def test_saddle_interior_force_is_not_swallowed_by_the_rim(coarse_vessel):
     left, right = coarse_vessel.summary()["contact"]
     for e in (left, right):
         rim = e["rim"]
-        parts = rim["force"] + rim["interior_force"] + rim["point_force"]
+        parts = rim["force"] + rim["line_loads"]["force"] + rim["interior_force"] + rim["point_force"]
         assert parts == pytest.approx(e["total_normal_force"], rel=1e-12)
         assert rim["interior_force"] > 0.05 * e["total_normal_force"] or not rim["interior_resolved"]
         assert rim["interior_force"] > 0.0 and rim["interior_pressure"] > 0.0  # measured 4 851 N, 25.7 kPa
@@ -303,4 +306,4 @@ def test_saddle_horn_line_loads_are_sampled_along_their_length(coarse_vessel):
             assert mean == pytest.approx(pl["mean_line_force"], rel=1e-3)
             xs = [q["x"] for q in own]
             assert max(xs) - min(xs) >= 0.5 * pl["length"] and max(xs) - min(xs) < pl["length"]
-            assert rim["peak_line_force"] >= pl["mean_line_force"]
+            assert rim["line_loads"]["peak_line_force"] >= pl["mean_line_force"]

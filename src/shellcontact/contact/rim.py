@@ -59,6 +59,9 @@ from .punches import Punch
 from .zone_points import fill_idle_rows, width_along
 
 SAMPLES = (33, 257)  # grid points along each side of a zone's sampling box: 4 per element, within these
+#: a fixed punch's outline (a distance field, cheap to sample): 4 per smallest element (its 5th percentile),
+#: up to this many, so that a row of points along a graded mesh's finest elements (a horn) gets its strip
+FIXED_SAMPLES = 2049
 PER_ELEMENT = 4
 MARGIN = 0.15  # the box extends the zone's extent by this fraction on each side (within the candidate zone)
 MAX_BINS = 72  # line-force bins per rim line
@@ -165,7 +168,7 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
             zp = (max(zp[0], sh.alpha), min(zp[1], sh.beta))
     bx = (max(x0 - mx, zx[0]), min(x1 + mx, zx[1]))
     bp = (max(phi0 - mp, zp[0]), min(phi1 + mp, zp[1]))
-    nx, nphi = _sample_counts(space, bx, bp)
+    nx, nphi = _sample_counts(space, bx, bp, classes is not None)
     xs, ps = np.linspace(*bx, nx), np.linspace(*bp, nphi)
     X, P = np.meshgrid(xs, ps)
     if classes is not None:  # off the body its mirrored idle points close the zone
@@ -203,9 +206,11 @@ def _without_repeats(line: np.ndarray) -> np.ndarray:
     return line[np.concatenate([[True], step > 1e-12 * scale])]
 
 
-def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, float]) -> tuple[int, int]:
+def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, float],
+                   fixed: bool = False) -> tuple[int, int]:
     """PER_ELEMENT samples per element along x and φ in the box (median element extents there), within SAMPLES:
-    the P5 gap is smooth inside an element, so the sampled level line follows the mesh's resolution."""
+    the P5 gap is smooth inside an element, so the sampled level line follows the mesh's resolution. For a fixed
+    punch's distance field (``fixed``), per smallest element (FIXED_SAMPLES)."""
     m = space.mesh
     a = m.shell.radius
     corners = m.p[:, m.t]  # (2, 3, nelements)
@@ -215,9 +220,10 @@ def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, 
         return SAMPLES[0], SAMPLES[0]
     ext = np.ptp(corners[:, :, inside], axis=1)
     counts = []
-    for width, h in ((bx[1] - bx[0], np.median(ext[0])), (a * (bp[1] - bp[0]), np.median(ext[1]))):
+    size, most = (lambda e: np.percentile(e, 5.0), FIXED_SAMPLES) if fixed else (np.median, SAMPLES[1])
+    for width, h in ((bx[1] - bx[0], size(ext[0])), (a * (bp[1] - bp[0]), size(ext[1]))):
         n = math.ceil(PER_ELEMENT * width / h) + 1 if h > 0 else SAMPLES[0]
-        counts.append(int(min(max(n, SAMPLES[0]), SAMPLES[1])))
+        counts.append(int(min(max(n, SAMPLES[0]), most)))
     return counts[0], counts[1]
 
 
