@@ -69,6 +69,7 @@ RIM_WIDTH = 3.0  # the rim's band: this many element widths (across the rim) fro
 LINE_CONTACT = 0.7  # a thin zone whose force sits this deep (× half its width) or deeper is a line contact
 LINE_SAMPLES = 3  # a line load's samples along its length: at least this many
 RIM_SHARE = 0.4  # ... but at most this share of the depth from the rim's first point to the zone's deepest
+STEP_WINDOW = 1.0  # a fixed punch's rim smoothed over a hat one element width either side along the line
 OFFSET_WINDOW = 6.0  # the rim's offset from the outline: a hat this many element widths either side along the line
 
 
@@ -356,6 +357,8 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         rim = ln + offset[:, None] * n_v
         if np.allclose(ln[0], ln[-1]):
             rim[-1] = rim[0]
+            if on_body is not None:  # a fixed punch's outline steps from row to row: its length would not converge
+                rim = _smoothed_loop(rim, arc, STEP_WINDOW * size)
         rim_seg = np.linalg.norm(np.diff(rim, axis=0), axis=1)
         rim_arc = np.concatenate([[0.0], np.cumsum(rim_seg)])
         rim_lines.append(rim)
@@ -414,6 +417,21 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
            "interior_resolved": split["interior_resolved"] and not unresolved,
            "line_loads": loads, "per_line": per_line, "samples": samples}
     return out, rim_lines
+
+
+def _smoothed_loop(loop: np.ndarray, arc: np.ndarray, half: float) -> np.ndarray:
+    """A closed polyline (first point = last) with each point moved to the mean of the line within ± half along
+    it (hat weights by arc length): a staircase from row to row (a fixed punch's outline, the boundary of its
+    constraint points' Voronoi cells) has a length that stays |dx| + |ds| under refinement where the curve it
+    steps along is slanted; smoothed over a few steps it tends to the curve's."""
+    period = float(arc[-1])
+    if period <= 0.0 or half <= 0.0:
+        return loop
+    at, pts = arc[:-1], loop[:-1]
+    ds = 0.5 * (np.diff(arc) + np.roll(np.diff(arc), 1))  # each point's share of the length
+    den = _hat_sum(at, at, ds, half, period)
+    out = np.stack([_hat_sum(at, at, ds * pts[:, c], half, period) for c in (0, 1)], axis=1) / den[:, None]
+    return np.vstack([out, out[:1]])
 
 
 def _geometry_has_force(geometry: list) -> bool:
