@@ -53,7 +53,16 @@ from ..shell.spaces import ShellSpace
 from .fixed_outline import class_field, fixed_punch_points, in_zone_facing_body
 from .interior import RESOLVED, interior_split
 from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
-from .outline_geometry import closes_on_itself, enclosed_area, perimeter_of, points_at, unresolved_hole, vertex_normals
+from .outline_geometry import (
+    closes_on_itself,
+    enclosed_area,
+    hat_sum,
+    perimeter_of,
+    points_at,
+    smoothed_loop,
+    unresolved_hole,
+    vertex_normals,
+)
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
 from .zone_points import fill_idle_rows, width_along
@@ -346,8 +355,8 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         # the rim: each point of the level line moved along its normal to the force-weighted mean offset of the
         # band within ± OFFSET_WINDOW elements (hat weights: the centroids scatter by a fraction of h)
         n_v = vertex_normals(ln, closed)
-        num = _hat_sum(arc, where[sel], f[sel] * side[sel], OFFSET_WINDOW * size, period)
-        den = _hat_sum(arc, where[sel], f[sel], OFFSET_WINDOW * size, period)
+        num = hat_sum(arc, where[sel], f[sel] * side[sel], OFFSET_WINDOW * size, period)
+        den = hat_sum(arc, where[sel], f[sel], OFFSET_WINDOW * size, period)
         has = den > 0
         if not has.any():
             continue
@@ -358,7 +367,7 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         if np.allclose(ln[0], ln[-1]):
             rim[-1] = rim[0]
             if on_body is not None:  # a fixed punch's outline steps from row to row: its length would not converge
-                rim = _smoothed_loop(rim, arc, STEP_WINDOW * size)
+                rim = smoothed_loop(rim, arc, STEP_WINDOW * size)
         rim_seg = np.linalg.norm(np.diff(rim, axis=0), axis=1)
         rim_arc = np.concatenate([[0.0], np.cumsum(rim_seg)])
         rim_lines.append(rim)
@@ -371,12 +380,12 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         # and midpoint forces of a uniform load average out), per unit length of the rim (d rim_arc / d arc)
         half = 2.0 * float(np.median(along[sel]))
         stretch = np.gradient(rim_arc, arc, edge_order=1) if len(arc) > 2 else np.ones_like(arc)
-        at_points = _hat_sum(where[sel], where[sel], f[sel], half, period) / half
+        at_points = hat_sum(where[sel], where[sel], f[sel], half, period) / half
         at_points /= np.maximum(np.interp(where[sel], arc, stretch, period=period), 1e-12)
         peak = max(peak, float(at_points.max(initial=0.0)))
         nb = int(min(MAX_BINS, max(3, math.floor(line_len[i] / half))))
         centres = (np.arange(nb) + 0.5) * line_len[i] / nb
-        density = _hat_sum(centres, where[sel], f[sel], half, period) / half
+        density = hat_sum(centres, where[sel], f[sel], half, period) / half
         density /= np.maximum(np.interp(centres, arc, stretch, period=period), 1e-12)
         on_rim = points_at(rim, np.interp(centres, arc, rim_arc))
         samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a) % 360.0 if sh.full
@@ -419,21 +428,6 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     return out, rim_lines
 
 
-def _smoothed_loop(loop: np.ndarray, arc: np.ndarray, half: float) -> np.ndarray:
-    """A closed polyline (first point = last) with each point moved to the mean of the line within ± half along
-    it (hat weights by arc length): a staircase from row to row (a fixed punch's outline, the boundary of its
-    constraint points' Voronoi cells) has a length that stays |dx| + |ds| under refinement where the curve it
-    steps along is slanted; smoothed over a few steps it tends to the curve's."""
-    period = float(arc[-1])
-    if period <= 0.0 or half <= 0.0:
-        return loop
-    at, pts = arc[:-1], loop[:-1]
-    ds = 0.5 * (np.diff(arc) + np.roll(np.diff(arc), 1))  # each point's share of the length
-    den = _hat_sum(at, at, ds, half, period)
-    out = np.stack([_hat_sum(at, at, ds * pts[:, c], half, period) for c in (0, 1)], axis=1) / den[:, None]
-    return np.vstack([out, out[:1]])
-
-
 def _geometry_has_force(geometry: list) -> bool:
     """Whether an outline that is not a line contact holds carrying points."""
     return any(mine is not None and mine.size for _, mine, _ in geometry)
@@ -452,18 +446,6 @@ def _window_min(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: flo
     for k, (a, b) in enumerate(zip(lo, hi)):
         if b > a:
             out[k] = v[a:b].min()
-    return out
-
-
-def _hat_sum(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: float,
-             period: float | None, chunk: int = 512) -> np.ndarray:
-    """Σ values · max(0, 1 − |at − where| / half) at each ``at`` (distances periodic with ``period``)."""
-    out = np.zeros(len(at))
-    for lo in range(0, len(at), chunk):
-        d = np.abs(at[lo:lo + chunk, None] - where[None, :])
-        if period is not None:
-            d = np.minimum(d, period - d)
-        out[lo:lo + chunk] = np.clip(1.0 - d / half, 0.0, None) @ values
     return out
 
 
