@@ -2,9 +2,9 @@
 
 examples/vessel_saddles.toml on a coarse base mesh (``SMALL``: 18 x 32, graded in φ toward the horns so that a
 horn is a row of points along the body's edge from the first level on): each saddle is 1, 2, 4 elements across
-at ``mesh.refine`` 0, 1, 2 (10 667, 41 522, 163 820 dofs; 7, 14, 46 s wall, 1.7 GB at refine 2). The independent check is
-the sequence itself (each headline changes less from refine 1 to 2 than from 0 to 1, and little) and
-conservation (the parts sum to the total normal force). At 8 elements across (the same case with
+at ``mesh.refine`` 0, 1, 2 (10 667, 41 522, 163 820 dofs; 7, 14, 46 s wall, 1.7 GB at refine 2). The
+independent check is the sequence itself (each headline changes less from refine 1 to 2 than from 0 to 1,
+and little) and conservation (the parts sum to the total normal force). At 8 elements across (the same case with
 ``mesh.x_lines = [-3.5, 3.5]`` at refine 2) the solution resolves what this mesh does not: a lift-off strip inside
 each face and the horns' force gathered at the saddle's corners, and the decomposition changes its structure
 (docs/outputs.md, "The saddles under refinement").
