@@ -27,7 +27,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 def _conserved(entry: dict) -> None:
     rim = entry["rim"]
-    parts = rim["force"] + rim["interior_force"] + rim["point_force"]
+    parts = rim["force"] + rim["line_loads"]["force"] + rim["interior_force"] + rim["point_force"]
     assert parts == pytest.approx(entry["total_normal_force"], rel=1e-12)
 
 

@@ -119,10 +119,13 @@ def _print_summary(con: Console, s: dict) -> None:
             if isinstance(zone, dict) and isinstance(zone.get("area"), (int, float)):
                 parts.append(f"zone area {q(zone['area'], 'area', path=f'contact.{i}.zone.area')}")
             rim = c.get("rim")
-            if isinstance(rim, dict) and rim.get("kind") != "point":  # the converging decomposition (rim.py)
-                name = "line load" if rim.get("kind") == "line" else "rim line force (mean)"
+            if isinstance(rim, dict) and rim.get("force"):  # the converging decomposition (rim.py): the area rim
                 value = q(rim["mean_line_force"], "force/length", path=f"contact.{i}.rim.mean_line_force")
-                parts.append(f"{name} {value}")
+                parts.append(f"rim line force (mean) {value}")
+            loads = rim.get("line_loads") if isinstance(rim, dict) else None
+            if isinstance(loads, dict) and loads.get("force"):  # ... and the line loads, apart
+                value = q(loads["mean_line_force"], "force/length", path=f"contact.{i}.rim.line_loads.mean_line_force")
+                parts.append(f"line load {value} over {q(loads['length'], 'length', '.4g')}")
             for j, pf in enumerate(rim.get("point_forces", []) if isinstance(rim, dict) else []):
                 parts.append(f"point force {q(pf['force'], 'force', path=f'contact.{i}.rim.point_forces.{j}.force')} "
                              f"at x={q(pf['x'], 'length', '.4g')} phi={pf['phi']:.4g} deg")

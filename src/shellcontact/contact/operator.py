@@ -52,7 +52,7 @@ from ..errors import InputError
 from ..shell.geometry import frame
 from ..shell.spaces import ShellSpace
 from .punches import Punch
-from .zone_points import ROUND_OFF_GAP, nearest_point_class
+from .zone_points import ROUND_OFF_GAP, fill_idle_rows, nearest_point_class
 
 POINTS = ("vertices", "vertices+midpoints")
 
@@ -488,7 +488,8 @@ def contact_zone(space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, del
     punch's points are classified by their nearest constraint point instead when ``carrying`` = (the operator,
     Λ, the gap at its rows) is given: it touches when it carries force or its gap is at round-off,
     ``ROUND_OFF_GAP`` × that motion (zone_points.py: between the points the gap is an interpolation with no
-    gap in its distribution, and points that carry nothing hover down to 10 nm above the punch).
+    gap in its distribution, and points that carry nothing hover down to 10 nm above the punch), or when it is
+    within one element between touching ones (``fill_idle_rows``: below the mesh's resolution).
     Returns per punch ``area`` (of the middle surface), ``x`` = [x0, x1] and ``phi`` = [φ0, φ1]
     (degrees) of the touching points, and the ``gap_tolerance`` used. Unlike the weights of the active
     constraint points — which shrink with h when a Kirchhoff shell carries the load in a line force at
@@ -517,9 +518,11 @@ def contact_zone(space: ShellSpace, punches: Sequence[Punch], U: np.ndarray, del
         if fixed and carrying is not None:  # contact = carrying force, or a gap at round-off (zone_points.py)
             op, lam, row_gap = carrying
             rows, tol = op.rows(k), tol * ROUND_OFF_GAP / ZONE_GAP
-            touching = inside & nearest_point_class(x, s.ravel(), op.x[rows], a * op.phi[rows],
-                                                    (lam[rows] > 0.0) | (row_gap[rows] <= tol),
-                                                    2.0 * np.pi * a if sh.full else None)
+            period = 2.0 * np.pi * a if sh.full else None
+            rows_touching = fill_idle_rows(space, op.x[rows], a * op.phi[rows],
+                                           (lam[rows] > 0.0) | (row_gap[rows] <= tol), period)
+            touching = inside & nearest_point_class(x, s.ravel(), op.x[rows], a * op.phi[rows], rows_touching,
+                                                    period)
         else:
             touching = (gap <= tol) & inside
         area = float(((np.abs(det)[:, None] * W[None, :]).ravel())[touching].sum())

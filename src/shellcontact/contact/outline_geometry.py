@@ -54,3 +54,30 @@ def enclosed_area(lines: list[np.ndarray]) -> float | None:
 
 def perimeter_of(line: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(line, axis=0), axis=1).sum())
+
+
+def hat_sum(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: float,
+             period: float | None, chunk: int = 512) -> np.ndarray:
+    """Σ values · max(0, 1 − |at − where| / half) at each ``at`` (distances periodic with ``period``)."""
+    out = np.zeros(len(at))
+    for lo in range(0, len(at), chunk):
+        d = np.abs(at[lo:lo + chunk, None] - where[None, :])
+        if period is not None:
+            d = np.minimum(d, period - d)
+        out[lo:lo + chunk] = np.clip(1.0 - d / half, 0.0, None) @ values
+    return out
+
+
+def smoothed_loop(loop: np.ndarray, arc: np.ndarray, half: float) -> np.ndarray:
+    """A closed polyline (first point = last) with each point moved to the mean of the line within ± half along
+    it (hat weights by arc length): a staircase from row to row (a fixed punch's outline, the boundary of its
+    constraint points' Voronoi cells) has a length that stays |dx| + |ds| under refinement where the curve it
+    steps along is slanted; smoothed over a few steps it tends to the curve's."""
+    period = float(arc[-1])
+    if period <= 0.0 or half <= 0.0:
+        return loop
+    at, pts = arc[:-1], loop[:-1]
+    ds = 0.5 * (np.diff(arc) + np.roll(np.diff(arc), 1))  # each point's share of the length
+    den = hat_sum(at, at, ds, half, period)
+    out = np.stack([hat_sum(at, at, ds * pts[:, c], half, period) for c in (0, 1)], axis=1) / den[:, None]
+    return np.vstack([out, out[:1]])

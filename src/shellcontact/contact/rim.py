@@ -19,20 +19,26 @@ over regions of fixed physical size do, and these are what this module reports (
    zone's deepest carrying point nearby (a saddle two elements wide keeps its middle rows interior); where that
    narrowing holds most of the band's force, the interior is flagged unresolved (``interior_resolved``).
    A closed outline round at most one idle row, none carrying inside, is below the mesh's resolution: no rim.
+   (A fixed punch's contact set is first closed by about one element, ``zone_points.fill_idle_rows``: one or two
+   idle rows between carrying ones cut its outline into corner loops, split lines and fake lines.)
    ``length`` is the rim's length, ``mean_line_force`` = force / length; the line force along the rim
    (``samples``, ``peak_line_force``) is the band's forces smoothed with a hat kernel two element lengths wide
    along the line (the vertex and midpoint forces of a uniform load average out), per unit length of the rim.
    Outline segments along the shell's own edges (a symmetry plane, the shell's end) carry no rim: points nearest
    them are interior and they add no length; two stretches of the outline running opposite ways that the
    offset puts onto one line (the sides of a sliver of zone along a rim) count once in the length.
-3. The interior: ``interior_force`` = total normal force − rim force over ``interior_area`` (the zone's area
-   inside the rim) gives ``mean_interior_pressure``.
+3. The interior: ``interior_force`` = total normal force − rim force − line loads over ``interior_area`` (the
+   zone's area inside the rim) gives ``mean_interior_pressure``.
 4. A line contact (per outline line; ``kind`` = "line" when every carrying line is one: a plate on a pipe): the
    outline is a thin strip round the line, at least eight times longer than wide, with the force on its middle
    line. Then its whole force is a line load: its length is the strip's long side (of the rectangle with the
    strip's perimeter and enclosed area), and the samples run along the line's direction (the forces' principal
    axis): at least LINE_SAMPLES bin centres over its length, scaled to integrate to its force. ``per_line``
    gives each line's kind, length, force and mean line force.
+The headlines keep the two apart: ``force``, ``length``, ``mean_line_force`` and ``peak_line_force`` are the
+area rim's (the boundary of a 2D zone; 0 for a pure line contact) and ``line_loads`` = {force, length,
+mean_line_force, peak_line_force} the line loads' (a plate's or a horn's edge), so that force + line_loads.force
++ interior_force + point_force = the total normal force, and no headline mixes a line load with a rim.
 Lengths are measured on the middle surface (x, s = aφ).
 """
 
@@ -47,11 +53,24 @@ from ..shell.spaces import ShellSpace
 from .fixed_outline import class_field, fixed_punch_points, in_zone_facing_body
 from .interior import RESOLVED, interior_split
 from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
-from .outline_geometry import closes_on_itself, enclosed_area, perimeter_of, points_at, unresolved_hole, vertex_normals
+from .outline_geometry import (
+    closes_on_itself,
+    enclosed_area,
+    hat_sum,
+    perimeter_of,
+    points_at,
+    smoothed_loop,
+    unresolved_hole,
+    vertex_normals,
+)
 from .point_forces import describe, point_force_clusters
 from .punches import Punch
+from .zone_points import fill_idle_rows, width_along
 
 SAMPLES = (33, 257)  # grid points along each side of a zone's sampling box: 4 per element, within these
+#: a fixed punch's outline (a distance field, cheap to sample): 4 per smallest element (its 5th percentile),
+#: up to this many, so that a row of points along a graded mesh's finest elements (a horn) gets its strip
+FIXED_SAMPLES = 2049
 PER_ELEMENT = 4
 MARGIN = 0.15  # the box extends the zone's extent by this fraction on each side (within the candidate zone)
 MAX_BINS = 72  # line-force bins per rim line
@@ -59,15 +78,17 @@ RIM_WIDTH = 3.0  # the rim's band: this many element widths (across the rim) fro
 LINE_CONTACT = 0.7  # a thin zone whose force sits this deep (× half its width) or deeper is a line contact
 LINE_SAMPLES = 3  # a line load's samples along its length: at least this many
 RIM_SHARE = 0.4  # ... but at most this share of the depth from the rim's first point to the zone's deepest
+STEP_WINDOW = 1.0  # a fixed punch's rim smoothed over a hat one element width either side along the line
 OFFSET_WINDOW = 6.0  # the rim's offset from the outline: a hat this many element widths either side along the line
 
 
 def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: ContactOperator, Lam: np.ndarray,
                    U: np.ndarray, delta: np.ndarray | None, zones: Sequence[dict]
                    ) -> tuple[list[dict | None], list[list[np.ndarray]]]:
-    """Per punch (None where it does not touch): ``kind`` ("area" or "line"), ``length`` of the rim (or of the
-    line), its ``force``, the ``interior_force``, ``interior_area`` and ``mean_interior_pressure``,
-    ``peak_line_force`` and ``mean_line_force`` (= force / length), the number of outline ``lines`` and
+    """Per punch (None where it does not touch): ``kind`` ("area", "line" or "point"), ``length`` of the area
+    rim, its ``force``, ``peak_line_force`` and ``mean_line_force`` (= force / length), the ``line_loads``
+    {force, length, mean_line_force, peak_line_force}, the ``interior_force``, ``interior_area`` and
+    ``mean_interior_pressure``, the number of outline ``lines`` and
     ``samples`` [{x, phi (degrees), line_force}] along the rim (module docstring); and per punch the rim's
     polylines (n, 2) in (x, s = aφ) where the line force acts, for the figures."""
     forced = [k for k, p in enumerate(punches) if p.mode == "force"]
@@ -80,7 +101,10 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
         step = float(np.asarray(delta, float)[forced.index(k)]) if p.mode == "force" and delta is not None else None
         touching = None
         if zone_tolerance(p, step) == 0.0:  # a fixed punch that only touches: its zone is where it carries
-            touching = (np.asarray(Lam, float)[rows] > 0.0) | (row_gap[rows] <= zone["gap_tolerance"])
+            sh = space.mesh.shell
+            touching = fill_idle_rows(space, operator.x[rows], sh.radius * operator.phi[rows],
+                                      (np.asarray(Lam, float)[rows] > 0.0) | (row_gap[rows] <= zone["gap_tolerance"]),
+                                      2.0 * np.pi * sh.radius if sh.full else None)
         lines = (_rim_lines(space, p, zone, U, step or 0.0, zone["gap_tolerance"],
                             fixed_punch_points(space, p, operator, rows, touching)) if "x" in zone else [])
         polylines.append([])
@@ -95,7 +119,7 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
         # a fixed punch's outline reaches half a point spacing past a row of points on the body's edge
         body = (lambda q, p=p: in_zone_facing_body(space, p, q[:, 0], q[:, 1])) if touching is not None else None
         entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, operator.weights[rows],
-                                 zone["area"], body)
+                                 zone["area"], body, touching)
         polylines[-1] = rim
         out.append({**entry, "point_force": sum(q["force"] for q in points), "point_forces": points})
     return out, polylines
@@ -107,8 +131,8 @@ def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi
     (in place) so that the line/interior split leaves them out."""
     carrying = np.flatnonzero(force > 0.0)
     pts = np.stack([x[carrying], space.mesh.shell.radius * phi[carrying]], axis=1)
-    width = np.maximum(_width_across(space, pts, np.tile([1.0, 0.0], (len(pts), 1))),
-                       _width_across(space, pts, np.tile([0.0, 1.0], (len(pts), 1))))
+    width = np.maximum(width_along(space, pts, np.tile([1.0, 0.0], (len(pts), 1))),
+                       width_along(space, pts, np.tile([0.0, 1.0], (len(pts), 1))))
     sh = space.mesh.shell
     box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
     # a cluster inside a thin strip of outline is on a line (a saddle's horn only two elements wide), not a point
@@ -126,6 +150,7 @@ def _only_points(points: list[dict], rest: np.ndarray, zone_area: float) -> dict
     is counted as interior force)."""
     interior = float(rest.sum())
     return {"kind": "point", "length": 0.0, "force": 0.0, "interior_force": interior, "peak_line_force": 0.0,
+            "line_loads": {"force": 0.0, "length": 0.0, "mean_line_force": 0.0, "peak_line_force": 0.0},
             "mean_line_force": 0.0, "lines": 0, "interior_area": zone_area,
             "mean_interior_pressure": interior / zone_area if zone_area > 0 else 0.0, "per_line": [],
             "samples": [], "point_force": sum(q["force"] for q in points), "point_forces": points}
@@ -153,7 +178,7 @@ def _rim_lines(space: ShellSpace, p: Punch, zone: dict, U: np.ndarray, step: flo
             zp = (max(zp[0], sh.alpha), min(zp[1], sh.beta))
     bx = (max(x0 - mx, zx[0]), min(x1 + mx, zx[1]))
     bp = (max(phi0 - mp, zp[0]), min(phi1 + mp, zp[1]))
-    nx, nphi = _sample_counts(space, bx, bp)
+    nx, nphi = _sample_counts(space, bx, bp, classes is not None)
     xs, ps = np.linspace(*bx, nx), np.linspace(*bp, nphi)
     X, P = np.meshgrid(xs, ps)
     if classes is not None:  # off the body its mirrored idle points close the zone
@@ -191,9 +216,11 @@ def _without_repeats(line: np.ndarray) -> np.ndarray:
     return line[np.concatenate([[True], step > 1e-12 * scale])]
 
 
-def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, float]) -> tuple[int, int]:
+def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, float],
+                   fixed: bool = False) -> tuple[int, int]:
     """PER_ELEMENT samples per element along x and φ in the box (median element extents there), within SAMPLES:
-    the P5 gap is smooth inside an element, so the sampled level line follows the mesh's resolution."""
+    the P5 gap is smooth inside an element, so the sampled level line follows the mesh's resolution. For a fixed
+    punch's distance field (``fixed``), per smallest element (FIXED_SAMPLES)."""
     m = space.mesh
     a = m.shell.radius
     corners = m.p[:, m.t]  # (2, 3, nelements)
@@ -203,18 +230,21 @@ def _sample_counts(space: ShellSpace, bx: tuple[float, float], bp: tuple[float, 
         return SAMPLES[0], SAMPLES[0]
     ext = np.ptp(corners[:, :, inside], axis=1)
     counts = []
-    for width, h in ((bx[1] - bx[0], np.median(ext[0])), (a * (bp[1] - bp[0]), np.median(ext[1]))):
+    size, most = (lambda e: np.percentile(e, 5.0), FIXED_SAMPLES) if fixed else (np.median, SAMPLES[1])
+    for width, h in ((bx[1] - bx[0], size(ext[0])), (a * (bp[1] - bp[0]), size(ext[1]))):
         n = math.ceil(PER_ELEMENT * width / h) + 1 if h > 0 else SAMPLES[0]
-        counts.append(int(min(max(n, SAMPLES[0]), SAMPLES[1])))
+        counts.append(int(min(max(n, SAMPLES[0]), most)))
     return counts[0], counts[1]
 
 
 def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: np.ndarray,
                 force: np.ndarray, weight: np.ndarray, zone_area: float,
-                on_body: Callable[[np.ndarray], np.ndarray] | None = None) -> dict:
+                on_body: Callable[[np.ndarray], np.ndarray] | None = None,
+                touching: np.ndarray | None = None) -> dict:
     """The decomposition of one punch's normal force (module docstring): a line contact's ``line_load``, or the
     rim's line force and the interior (``interior.interior_split``); ``weight``: the rows' ωᵢ; ``on_body``:
-    for a fixed punch, whether points (n, 2) in (x, s) face its body within its zone."""
+    for a fixed punch, whether points (n, 2) in (x, s) face its body within its zone, and ``touching`` the rows in
+    its contact (``zone_points.fill_idle_rows``), which are not idle for the interior's edges."""
     a = space.mesh.shell.radius
     total = float(force.sum())
     carrying = force > 0.0
@@ -263,8 +293,8 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
     normal = np.stack([-seg_dir[j, 1], seg_dir[j, 0]], axis=1)
     normal = np.where((t <= 0.0)[:, None], n_start[j], np.where((t >= 1.0)[:, None], n_end[j], normal))
     tangent = np.stack([normal[:, 1], -normal[:, 0]], axis=1)
-    across = _width_across(space, pts, normal)
-    along = _width_across(space, pts, tangent)
+    across = width_along(space, pts, normal)
+    along = width_along(space, pts, tangent)
     # a line contact: an outline that is a strip at least eight times longer than wide whose force sits on its
     # middle line (not outside it, as where the tolerance is below the gap's scatter between constraint points)
     line_parts: list[tuple[dict, list[np.ndarray]]] = []
@@ -325,8 +355,8 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         # the rim: each point of the level line moved along its normal to the force-weighted mean offset of the
         # band within ± OFFSET_WINDOW elements (hat weights: the centroids scatter by a fraction of h)
         n_v = vertex_normals(ln, closed)
-        num = _hat_sum(arc, where[sel], f[sel] * side[sel], OFFSET_WINDOW * size, period)
-        den = _hat_sum(arc, where[sel], f[sel], OFFSET_WINDOW * size, period)
+        num = hat_sum(arc, where[sel], f[sel] * side[sel], OFFSET_WINDOW * size, period)
+        den = hat_sum(arc, where[sel], f[sel], OFFSET_WINDOW * size, period)
         has = den > 0
         if not has.any():
             continue
@@ -336,6 +366,8 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         rim = ln + offset[:, None] * n_v
         if np.allclose(ln[0], ln[-1]):
             rim[-1] = rim[0]
+            if on_body is not None:  # a fixed punch's outline steps from row to row: its length would not converge
+                rim = smoothed_loop(rim, arc, STEP_WINDOW * size)
         rim_seg = np.linalg.norm(np.diff(rim, axis=0), axis=1)
         rim_arc = np.concatenate([[0.0], np.cumsum(rim_seg)])
         rim_lines.append(rim)
@@ -348,12 +380,12 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         # and midpoint forces of a uniform load average out), per unit length of the rim (d rim_arc / d arc)
         half = 2.0 * float(np.median(along[sel]))
         stretch = np.gradient(rim_arc, arc, edge_order=1) if len(arc) > 2 else np.ones_like(arc)
-        at_points = _hat_sum(where[sel], where[sel], f[sel], half, period) / half
+        at_points = hat_sum(where[sel], where[sel], f[sel], half, period) / half
         at_points /= np.maximum(np.interp(where[sel], arc, stretch, period=period), 1e-12)
         peak = max(peak, float(at_points.max(initial=0.0)))
         nb = int(min(MAX_BINS, max(3, math.floor(line_len[i] / half))))
         centres = (np.arange(nb) + 0.5) * line_len[i] / nb
-        density = _hat_sum(centres, where[sel], f[sel], half, period) / half
+        density = hat_sum(centres, where[sel], f[sel], half, period) / half
         density /= np.maximum(np.interp(centres, arc, stretch, period=period), 1e-12)
         on_rim = points_at(rim, np.interp(centres, arc, rim_arc))
         samples += [{"x": float(c[0]), "phi": float(math.degrees(c[1] / a) % 360.0 if sh.full
@@ -365,31 +397,34 @@ def _distribute(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi: 
         entry["length"] = own
         entry["mean_line_force"] = entry["force"] / own if own > 0 else 0.0
         length += own
+    loads = {"force": 0.0, "length": 0.0, "mean_line_force": 0.0, "peak_line_force": 0.0}
     for part, polyline in line_parts:  # line contacts: their whole force is a line load
-        rim_force += part["force"]
-        length += part["length"]
+        loads["force"] += part["force"]
+        loads["length"] += part["length"]
         inner_area += part["area"]
-        peak = max(peak, part["peak_line_force"])
+        loads["peak_line_force"] = max(loads["peak_line_force"], part["peak_line_force"])
         samples += [{**q, "line": len(per_line)} for q in part["samples"]]
         rim_lines += polyline
         per_line.append({"kind": "line", "length": part["length"], "force": part["force"],
                          "mean_line_force": part["mean_line_force"], "closed": False})
-    interior = max(total - rim_force, 0.0)
+    loads["mean_line_force"] = loads["force"] / loads["length"] if loads["length"] > 0 else 0.0
+    interior = max(total - rim_force - loads["force"], 0.0)
     interior_area = max(zone_area - inner_area, 0.0)
     rest = ~band & ~is_line[seg_line[j]]  # the interior's carrying rows: not on the rim's band or a line load
-    idle = np.stack([x[~carrying], a * phi[~carrying]], axis=1)
+    idle_rows = ~carrying if touching is None else ~(carrying | touching)  # (a filled row is in the contact)
+    idle = np.stack([x[idle_rows], a * phi[idle_rows]], axis=1)
     # a band narrowed to a share of the zone's depth holds the interior's pressure over a width that does not
     # vanish as h does: where it holds most of the band's force, the interior is not resolved by this mesh
     unresolved = float(f[band & narrow].sum()) > RESOLVED * float(f[band].sum())
     split = interior_split(pts[rest], f[rest], w[rest], np.maximum(across, along)[rest], idle,
-                           lambda p, d: _width_across(space, p, d))
+                           lambda p, d: width_along(space, p, d))
     out = {"kind": "line" if line_parts and not _geometry_has_force(geometry) else "area", "length": length,
            "force": rim_force, "interior_force": interior,
            "peak_line_force": peak, "mean_line_force": rim_force / length if length > 0 else 0.0,
            "lines": len(per_line), "interior_area": interior_area,
            "mean_interior_pressure": interior / interior_area if interior_area > 0 else 0.0, **split,
            "interior_resolved": split["interior_resolved"] and not unresolved,
-           "per_line": per_line, "samples": samples}
+           "line_loads": loads, "per_line": per_line, "samples": samples}
     return out, rim_lines
 
 
@@ -414,18 +449,6 @@ def _window_min(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: flo
     return out
 
 
-def _hat_sum(at: np.ndarray, where: np.ndarray, values: np.ndarray, half: float,
-             period: float | None, chunk: int = 512) -> np.ndarray:
-    """Σ values · max(0, 1 − |at − where| / half) at each ``at`` (distances periodic with ``period``)."""
-    out = np.zeros(len(at))
-    for lo in range(0, len(at), chunk):
-        d = np.abs(at[lo:lo + chunk, None] - where[None, :])
-        if period is not None:
-            d = np.minimum(d, period - d)
-        out[lo:lo + chunk] = np.clip(1.0 - d / half, 0.0, None) @ values
-    return out
-
-
 def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: float, perimeter: float,
                   total: float, on_body: Callable[[np.ndarray], np.ndarray] | None = None
                   ) -> tuple[dict, list[np.ndarray]]:
@@ -442,7 +465,7 @@ def _line_contact(space: ShellSpace, pts: np.ndarray, f: np.ndarray, zone_area: 
             e = np.linalg.eigh(cov)[1][:, -1]  # the line's direction (principal axis of the forces)
     s = (pts - c) @ e
     a = space.mesh.shell.radius
-    half = 2.0 * float(np.median(_width_across(space, pts, np.tile(e, (len(pts), 1)))))  # two element lengths
+    half = 2.0 * float(np.median(width_along(space, pts, np.tile(e, (len(pts), 1)))))  # two element lengths
     lo, hi = float(s.min()), float(s.max())
     if on_body is not None and length > hi - lo > 0.0:  # (a strip round one point keeps its length)
         over = 0.5 * (length - (hi - lo))
@@ -512,23 +535,6 @@ def _second_segment(pts: np.ndarray, seg0: np.ndarray, seg1: np.ndarray, j: np.n
         j2[lo:lo + chunk], t2[lo:lo + chunk] = jj, tt[rows, jj]
         tied[lo:lo + chunk] = dd[rows, jj] <= depth[lo:lo + chunk] + tol
     return j2, t2, tied
-
-
-def _width_across(space: ShellSpace, pts: np.ndarray, normal: np.ndarray) -> np.ndarray:
-    """The width (in x, s) of the elements at each point, measured along ``normal`` (unit, (n, 2)): the mesh's
-    resolution across the rim, also on the long thin elements of a mesh graded in one direction. A point on a
-    vertex or an edge touches several elements: the largest width of those in the four diagonal directions from
-    it, so that mirror images of a point (on a mirror-symmetric mesh) get the same width."""
-    m = space.mesh
-    sh = m.shell
-    eps = 1e-7 * sh.radius
-    widths = np.zeros(len(pts))
-    for dx, ds in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
-        x = np.clip(pts[:, 0] + dx * eps, sh.x_min, sh.x_max)
-        s = np.clip(pts[:, 1] + ds * eps, sh.s_min, sh.s_max)
-        corners = m.p[:, m.t[:, space.locate(x, s)]]  # (2, 3, n)
-        widths = np.maximum(widths, np.ptp(np.einsum("kcn,nk->cn", corners, normal), axis=0))
-    return widths
 
 
 def _union_lengths(polylines: list[np.ndarray], outlines: list[np.ndarray], keep: list[np.ndarray],

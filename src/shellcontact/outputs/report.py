@@ -277,12 +277,12 @@ def _headline(s: Mapping[str, Any]) -> str:
                              f"at x = {with_unit(_g(pf['x']), 'length', system)}, φ = {_g(pf['phi'])}°: carrying "
                              "points within the elements round one vertex (a zone the mesh sees as a point: refine "
                              "to tell a point from a small area), left out of the line/interior split"])
-            if rim.get("kind") == "point":
-                pass
-            elif rim.get("kind") == "line":  # a line contact: the whole force is the line load
-                rows.append([f"{who}line load", rim["mean_line_force"], u("force/length"),
-                             f"force / length of the contact line ({with_unit(_g(rim['length']), 'length', system)})"])
-            else:
+            loads = rim.get("line_loads") or {}
+            if loads.get("force"):  # line contacts (a plate on a pipe, a saddle's horn): apart from the area rim
+                rows.append([f"{who}line load", loads["mean_line_force"], u("force/length"),
+                             f"force / length of the contact lines ({with_unit(_g(loads['length']), 'length', system)}"
+                             f", carrying {loads['force'] / c['total_normal_force']:.0%} of the normal force)"])
+            if rim.get("force"):
                 rows.append([f"{who}rim line force (mean)", rim["mean_line_force"], u("force/length"),
                              f"along {with_unit(_g(rim['length']), 'length', system)} of rim, carrying "
                              f"{share:.0%} of the normal force; peak (mesh-dependent) "

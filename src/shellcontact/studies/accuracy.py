@@ -56,6 +56,9 @@ HEADLINES: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = (
     ("contact.*.rim.length", ()),
     ("contact.*.rim.force", (("contact.*.total_normal_force", 1.0),)),
     ("contact.*.rim.mean_line_force", ()),
+    ("contact.*.rim.line_loads.length", ()),
+    ("contact.*.rim.line_loads.force", (("contact.*.total_normal_force", 1.0),)),
+    ("contact.*.rim.line_loads.mean_line_force", ()),
     ("contact.*.rim.point_forces.*.force", (("contact.*.total_normal_force", 1.0),)),
 )
 #: headlines that are none where another summary entry has a value: the area of a line contact (a plate on a

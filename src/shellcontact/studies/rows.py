@@ -30,7 +30,7 @@ CONTACT_COLUMNS = (
 #: the kind of quantity (units.KINDS) of each CSV column, by name pattern (None: a count or dimensionless)
 COLUMN_KINDS = (("dofs", None), ("energy", "energy"), ("max_abs_w", "length"), ("probe*_[uvw]", "length"),
                 ("normal_force*", "force"), ("force*", "force"), ("zone_area*", "area"), ("area*", "area"),
-                ("line_force*", "force/length"),
+                ("line_force*", "force/length"), ("line_load*", "force/length"),
                 ("peak_pressure*", "pressure"), ("active_vertices*", None), ("punch_travel*", "length"),
                 ("iterations", None), ("h", "length"))
 
@@ -60,11 +60,12 @@ def summary_row(summary: dict[str, Any], probe_components: Sequence[str] = ("w",
                     row[col + suffix] = e[key]
             if isinstance(e.get("zone"), dict) and e["zone"].get("area") is not None:
                 row["zone_area" + suffix] = e["zone"]["area"]  # the area that converges (contact.contact_zone)
-            # the rim's mean line force, or a line contact's line load; empty where there is no rim (a point
-            # force: contact.<k>.rim.point_forces)
-            rim = e.get("rim")
-            has_rim = isinstance(rim, dict) and rim.get("kind") != "point"
-            row["line_force" + suffix] = rim["mean_line_force"] if has_rim else None
+            # the area rim's mean line force and the line loads' (a plate on a pipe, a saddle's horn), apart; empty
+            # where there is none (a point force: contact.<k>.rim.point_forces)
+            rim = e.get("rim") if isinstance(e.get("rim"), dict) else {}
+            loads = rim.get("line_loads") or {}
+            row["line_force" + suffix] = rim["mean_line_force"] if rim.get("force") else None
+            row["line_load" + suffix] = loads["mean_line_force"] if loads.get("force") else None
     it = summary.get("iterations")
     if isinstance(it, int):
         row["iterations"] = it

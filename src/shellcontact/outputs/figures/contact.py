@@ -83,8 +83,11 @@ def _rim_headline(result, rim: dict | None) -> str:
     points = rim.get("point_forces") or []
     if rim.get("kind") == "point":
         return ", ".join(f"point force {_q(result, pf['force'], 'force')}" for pf in points[:3])
-    name = "line load" if rim.get("kind") == "line" else "rim line force (mean)"
-    return f"{name} {_q(result, rim['mean_line_force'], 'force/length')}"
+    loads = rim.get("line_loads") or {}
+    parts = [f"rim line force (mean) {_q(result, rim['mean_line_force'], 'force/length')}"] if rim.get("force") else []
+    if loads.get("force"):  # the line loads apart from the area rim (rim.py)
+        parts.append(f"line load {_q(result, loads['mean_line_force'], 'force/length')}")
+    return ", ".join(parts)
 
 
 def _draw_line_force(ax, fig, result, rim: dict | None, lines: list[np.ndarray]) -> bool:

@@ -18,7 +18,8 @@ from .common import _finish
 SWEEP_PANELS = (
     ("force", "contact force |F|", "force"),
     ("zone_area", "contact zone area", "area"),
-    ("line_force", "line force (rim mean or line load)", "force/length"),
+    ("line_force", "rim line force (mean)", "force/length"),
+    ("line_load", "line load (mean)", "force/length"),
     ("energy", "strain energy", "energy"),
     ("max_abs_w", "max |w|", "length"),
 )
