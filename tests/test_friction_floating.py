@@ -190,3 +190,26 @@ def test_axial_load_and_twist_within_the_disc_are_held():
     assert friction == pytest.approx(-400.0, rel=1e-8)
     reactions = s["equilibrium"]["reactions"]
     assert abs(reactions["force"][0]) <= 1e-6 * 400 and abs(reactions["moment"][0]) <= 1e-6 * 400
+
+
+def test_tangential_force_on_a_shell_held_by_friction():
+    """The coarse vessel with the sliding saddle pushed by 5 kN along +x instead of slid (without a slide the head
+    pressure's stretch makes it hold the vessel with −10.3 kN): the saddle's friction force is the 5 kN (measured
+    to 4e-12), the fixed saddle's the opposite (the axial motion, held by friction alone, in equilibrium; the gauge
+    carries 2e-8 N), and the slide found (0.173 mm), given to the dual as a slide, gives the force again (an
+    independent solve and method: measured 4e-10). Before MPGP's face step followed the circles' arc, the dual
+    (and the Newton's fallback to it) failed on this case's solves (2000 expansion steps)."""
+    d = tomllib.loads(EXAMPLE.read_text())
+    d["mesh"].update(nx=20, nphi=24, refine=0)
+    d["punch"][1].pop("slide")
+    d["punch"][1]["tangential_force"] = [5e3, 0.0, 0.0]
+    s = sc.solve(case_from_dict(d)).summary()
+    fixed, pushed = (c["friction"] for c in s["contact"])
+    assert pushed["force"][0] == pytest.approx(5e3, rel=1e-8) and pushed["tangential_force"] == [5e3, 0.0, 0.0]
+    assert fixed["force"][0] == pytest.approx(-5e3, rel=1e-8)
+    assert abs(s["equilibrium"]["reactions"]["force"][0]) <= 1e-6 * 5e3
+    assert pushed["force_control_solves"] <= 40  # measured 15
+    del d["punch"][1]["tangential_force"]
+    d["punch"][1]["slide"] = pushed["slide"]
+    again = sc.solve(case_from_dict(d), method="dual").summary()["contact"][1]["friction"]
+    assert again["force"][0] == pytest.approx(5e3, rel=1e-7)

@@ -15,10 +15,9 @@ from .common import _finish, _map_axes, _q, _vertex_map
 #: the colours of the friction states (fields.FRICTION_STATES)
 STATE_STYLE = {0: ("open", "0.75", 6), 1: ("stick", "tab:blue", 16), 2: ("slip", "tab:red", 16)}
 ARROW = 0.06  # the arrow of the key's traction (the longest): this share of the panel's width
-#: the key's traction: this quantile of the tractions (0.9 still fell on a horn: 4 of 28 points at 40 × 48); longer
-#: ones are clipped to it (drawn in CLIPPED) so that
-#: a few line forces (a saddle's horns: 5.8e5 Pa against a median of 1.3e4 Pa on the vessel on saddles, 40 × 48)
-#: neither run off the panel nor shrink every other arrow to a dot
+#: the key's traction: this quantile of the tractions; longer ones are clipped to it (drawn in CLIPPED) so that a few
+#: line forces (a saddle's horns on the vessel on saddles, 40 × 48: up to 5.8e5 Pa against the quantile's 1.3e5 Pa;
+#: 0.9 still fell on them, 4 of 28 points) neither run off the panel nor shrink every other arrow to a dot
 QUANTILE = 0.75
 CLIPPED = "tab:purple"
 MARGIN = 0.12  # beyond the points on each side (× their extent): an arrow at the edge stays inside
