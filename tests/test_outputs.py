@@ -215,6 +215,7 @@ def test_contact_vertex_arrays_gather_operator_rows() -> None:
     their sums: Σ contact_force = Σ Λ, Σ contact_force_vector = the punch resultant Σ Λ_i ∇Z_i."""
     from shellcontact import load_case
     from shellcontact.analysis.discretization import case_mesh
+    from shellcontact.contact.nodal_pressure import on_vertices
     from shellcontact.contact.operator import contact_operator
     from shellcontact.contact.punches import place_punches
     from shellcontact.outputs.fields import contact_vertex_arrays
@@ -227,7 +228,7 @@ def test_contact_vertex_arrays_gather_operator_rows() -> None:
     rng = np.random.default_rng(1)
     Lam = np.where(rng.random(op.m) < 0.3, rng.random(op.m), 0.0)
     gap = rng.random(op.m)
-    f = contact_vertex_arrays(op, Lam, Lam > 0, gap)
+    f = contact_vertex_arrays(op, Lam, lambda v: on_vertices(op, v), Lam > 0, gap)
     nv = space.mesh.nvertices
     assert all(f[k].shape[0] == nv for k in f)
     rows = op.vertex >= 0
@@ -237,6 +238,28 @@ def test_contact_vertex_arrays_gather_operator_rows() -> None:
     assert np.array_equal(np.sort(np.nonzero(f["contact_status"] == 1)[0]), np.unique(op.vertex[rows & (Lam > 0)]))
     assert np.array_equal(np.isnan(f["gap"]), f["contact_status"] < 0)
     assert np.allclose(f["contact_pressure"], op.vertex_pressure(Lam))
+
+
+def test_contact_vertex_forces_keep_the_seam_rows_on_a_full_cylinder() -> None:
+    """On a full cylinder the band clamp's zone crosses the seam φ = α ≡ β. The per-vertex contact forces of the
+    φ = α vertices (the φ = β copies repeat them) sum to every row's Λ and to the resultant Σ Λ_i ∇Z_i,
+    edge-midpoint rows whose edge ends on a φ = β copy included (their half used to be overwritten by the twin's
+    value: 3.3 % of the clamp force lost at 40 × 8, 253 379 of 262 117 N)."""
+    from shellcontact import load_case, solve
+    from shellcontact.outputs.fields import contact_vertex_fields
+
+    case = load_case(ROOT / "examples" / "band_clamp.toml", ["mesh.nx=40", "mesh.nphi=8"])
+    result = solve(case)
+    c = result.contact
+    f = contact_vertex_fields(result)
+    keep = np.ones(result.solution.space.mesh.nvertices, bool)
+    keep[c.operator.twins[0]] = False  # the φ = β copies
+    assert (c.operator.vertex < 0).any() and c.Lambda[c.operator.vertex < 0].sum() > 0  # midpoint rows carry
+    assert f["contact_force"][keep].sum() == pytest.approx(c.Lambda.sum(), rel=1e-12)
+    resultant = (c.operator.grad * c.Lambda).sum(axis=1)
+    scale = np.abs(c.operator.grad * c.Lambda).sum()
+    assert np.abs(f["contact_force_vector"][keep].sum(axis=0) - resultant).max() <= 1e-12 * scale
+    assert np.array_equal(f["contact_force"][c.operator.twins[0]], f["contact_force"][c.operator.twins[1]])
 
 
 # -- a real contact run (the paper's panel, coarse) ---------------------------------------------------------

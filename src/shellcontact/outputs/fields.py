@@ -6,6 +6,8 @@ arrays from here. The arrays are listed in docs/outputs.md.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from .results import SURFACES
@@ -19,8 +21,8 @@ FRICTION_STATES = {-1: "no contact row", 0: "open", 1: "stick", 2: "slip"}
 
 
 def contact_vertex_arrays(
-    op, Lam: np.ndarray, active: np.ndarray | None = None, gap: np.ndarray | None = None,
-    pressure: np.ndarray | None = None,
+    op, Lam: np.ndarray, spread: Callable[[np.ndarray], np.ndarray], active: np.ndarray | None = None,
+    gap: np.ndarray | None = None, pressure: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Per-vertex contact arrays from a ``contact.ContactOperator`` and the row values of a solve.
 
@@ -29,8 +31,10 @@ def contact_vertex_arrays(
     ``pressure`` (npunch, nv) summed (``contact.nodal_pressure``; without it the vertex rows' Λ/ω,
     ``op.vertex_pressure``, which zig-zags on a uniform load); ``gap`` = min over the rows of G + BU
     (NaN where no row) — these from the vertex rows; ``contact_force`` = Σ Λ_i and ``contact_force_vector``
-    (nv, 3) = Σ Λ_i ∇Z(M_i) over the vertex's rows plus half of each edge-midpoint row on its edges, so that
-    they sum to the punches' forces. On a full cylinder the φ = β copies take the values of their φ = α twins.
+    (nv, 3) = Σ Λ_i ∇Z(M_i) on the vertices' value dofs, ``spread`` (row values (m, …) → (npunch, nv, …):
+    ``contact.nodal_pressure.on_vertices``, the vertex's rows plus half of each edge-midpoint row on its edges),
+    summed over the punches, so that they sum to the punches' forces. On a full cylinder the φ = β copies take
+    the values of their φ = α twins.
     """
     nv = int(op.nvertices)
     Lam = np.asarray(Lam, float)
@@ -39,15 +43,8 @@ def contact_vertex_arrays(
     act = (op.active(Lam) if active is None else np.asarray(active, bool))[r]
     status = np.full(nv, -1, dtype=np.int64)
     np.maximum.at(status, v, act.astype(np.int64))
-    force = np.zeros(nv)
-    np.add.at(force, v, Lam[r])
-    fvec = np.zeros((nv, 3))
-    np.add.at(fvec, v, (np.asarray(op.grad)[:, r] * Lam[r]).T)
-    ends = getattr(op, "ends", None)
-    mid = np.nonzero(np.asarray(op.vertex) < 0)[0] if ends is not None else np.zeros(0, int)
-    for end in (ends[:, mid] if mid.size else ()):  # an edge midpoint's force, half to each end of its edge
-        np.add.at(force, end, 0.5 * Lam[mid])
-        np.add.at(fvec, end, 0.5 * (np.asarray(op.grad)[:, mid] * Lam[mid]).T)
+    force = spread(Lam).sum(axis=0)
+    fvec = spread((np.asarray(op.grad) * Lam).T).sum(axis=0)
     out = {
         "contact_status": status,
         "contact_pressure": (np.asarray(op.vertex_pressure(Lam), float) if pressure is None
@@ -75,9 +72,9 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
     nv (mesh vertices) named in CONTACT_FIELDS — ``contact_status`` (1 active, 0 inactive
     candidate, −1 not a candidate), ``contact_pressure`` (Pa, the nodal pressure, 0 off contact), ``gap``
     (G + BU, NaN off the candidate set), ``contact_force`` (nodal Λ_i), optionally
-    ``contact_force_vector`` (nv, 3). ``contact_vertex_arrays(op, Lam, active, gap, pressure)`` builds exactly
-    these from a ContactOperator; it is used directly when the object has ``operator`` and
-    ``Lambda`` (and optionally ``active``, ``gap``, ``nodal_pressure``) attributes. Otherwise,
+    ``contact_force_vector`` (nv, 3). ``contact_vertex_arrays(op, Lam, spread, active, gap, pressure)`` builds exactly
+    these from a ContactOperator; it is used directly when the object has ``operator``,
+    ``Lambda`` and ``on_vertices`` (and optionally ``active``, ``gap``, ``nodal_pressure``) attributes. Otherwise,
     attributes ``status``/``active``, ``pressure``, ``gap``, ``forces``/``Lambda`` are used, scattered
     to all vertices through ``vertices`` (candidate vertex indices) when they are shorter than nv.
     Missing fields are skipped, never invented.
@@ -88,10 +85,10 @@ def contact_vertex_fields(result) -> dict[str, np.ndarray]:
     nv = result.solution.space.mesh.nvertices
     if hasattr(c, "vertex_fields"):
         raw = dict(c.vertex_fields())
-    elif getattr(c, "operator", None) is not None and getattr(c, "Lambda", None) is not None:
+    elif all(getattr(c, a, None) is not None for a in ("operator", "Lambda", "on_vertices")):
         gap = getattr(c, "gap", None)
         gap = gap() if callable(gap) else gap
-        return contact_vertex_arrays(c.operator, c.Lambda, getattr(c, "active", None), gap,
+        return contact_vertex_arrays(c.operator, c.Lambda, c.on_vertices, getattr(c, "active", None), gap,
                                      getattr(c, "nodal_pressure", None))
     else:
         raw = {}

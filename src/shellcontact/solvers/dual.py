@@ -49,10 +49,12 @@ import numpy as np
 
 from ..errors import SolverError
 from ..linalg import Factorization
+from .augmented import augmented_lagrangian
 from .qp import ContactQP, ContactSolution, History, as_mask, check_arguments, check_growth
 from .schur import Unfinished, Workspace, deepest_violations, default_growth
 
 _NEG = 1e-13  # relative size below which a negative face-minimiser component counts as zero
+OUTER = 50  # the augmented Lagrangian's outer steps at most
 
 
 def _face_minimiser(ws: Workspace, block: Callable, c: np.ndarray, idx: np.ndarray) -> np.ndarray:
@@ -213,46 +215,57 @@ def dual_core(
     if rho is None:
         diag = ws.known_diagonal()
         rho = 10.0 * float(diag.max()) if diag.size else 1.0
-    total = 0
+    spent = [0]  # the inner iterations so far: each inner solve gets what is left of max_iterations
 
-    def matvec(x: np.ndarray) -> np.ndarray:  # (S + ρDDᵀ)x
-        return ws.Sx(x) + rho * (D @ (D.T @ x))
+    def inner(delta: np.ndarray, rho: float, lam: np.ndarray) -> tuple[np.ndarray, int, bool]:
+        def matvec(x: np.ndarray) -> np.ndarray:  # (S + ρDDᵀ)x
+            return ws.Sx(x) + rho * (D @ (D.T @ x))
 
-    def block(J: np.ndarray) -> np.ndarray:
-        return ws.block(J) + rho * (D[J] @ D[J].T)
+        def block(J: np.ndarray) -> np.ndarray:
+            return ws.block(J) + rho * (D[J] @ D[J].T)
 
-    for outer in range(1, 51):
-        c = ws.c0 + D @ (delta + rho * P)
-        lam, its, ok = bound_qp(ws, lam, c, matvec, block, tol, max_iterations - total, history, gamma, it0 + total,
-                                growth)
-        total += its
-        if not ok:
-            break
-        delta = delta + rho * (D.T @ lam + P)
-        # polish: the face KKT system with δ, exactly
+        out = bound_qp(ws, lam, ws.c0 + D @ (delta + rho * P), matvec, block, tol, max_iterations - spent[0],
+                       history, gamma, it0 + spent[0], growth)
+        spent[0] += out[1]
+        return out
+
+    def polish(lam: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The face KKT system with δ, exactly (finite termination once the face is right); None where it does
+        not give a feasible point (a singular face leaves part of δ undetermined)."""
         idx = np.flatnonzero(lam > 0)
-        if idx.size:
-            x, d, singular = ws.face_solve(idx, -ws.c0[idx], -P)
-            if not singular and np.all(x >= 0):  # a singular face leaves part of δ undetermined: no polish
-                trial = np.zeros(qp.m)
-                trial[idx] = x
-                gtr = ws.gap(trial, d)
-                if gtr[ws.live].min(initial=0.0) >= -tol * ws.length_scale(gtr):
-                    history.append({"iteration": it0 + total, "outer": outer, "step": "polish", "free": int(idx.size)})
-                    return trial, d, total
-        # against the problem's force scale too (``kkt``): with P = 0 and Λ = 0 the gross force is round-off
-        fb = np.linalg.norm(D.T @ lam + P) / max(np.linalg.norm(P), np.linalg.norm(abs(D).T @ lam),
-                                                 ws.force_scale(ws.gap(lam, delta)))
-        history.append({"iteration": it0 + total, "outer": outer, "force_balance": float(fb)})
-        if fb <= tol:
-            return lam, delta, total
-        if total >= max_iterations:
-            break
+        if not idx.size:
+            return None
+        x, d, singular = ws.face_solve(idx, -ws.c0[idx], -P)
+        if singular or not np.all(x >= 0):
+            return None
+        trial = np.zeros(qp.m)
+        trial[idx] = x
+        gtr = ws.gap(trial, d)
+        if gtr[ws.live].min(initial=0.0) < -tol * ws.length_scale(gtr):
+            return None
+        history.append({"iteration": it0 + spent[0], "step": "polish", "free": int(idx.size)})
+        return trial, d
+
+    def record(outer: int, total: int, error: float) -> None:
+        history.append({"iteration": it0 + total, "outer": outer, "force_balance": error})
+
+    lam, delta, total, ok = augmented_lagrangian(
+        inner, D, P, lam, delta, rho, tol, OUTER, lambda y, d: _force_scale(ws, y, d), budget=max_iterations,
+        polish=polish, record=record)
+    if ok:
+        return lam, delta, total
     raise SolverError(
         f"dual: augmented-Lagrangian iteration did not reach the tolerance {tol:g}",
         residuals=_dual_residuals(ws, lam, delta),
         iterations=total,
     )
+
+
+def _force_scale(ws: Workspace, lam: np.ndarray, delta: np.ndarray) -> float:
+    """The gross size of the balance DᵀΛ + P, as ``kkt``'s force_balance takes it: against the problem's force
+    scale too, since with P = 0 and Λ = 0 the gross force is round-off."""
+    return float(max(np.linalg.norm(ws.qp.P), np.linalg.norm(abs(ws.qp.D).T @ lam),
+                     ws.force_scale(ws.gap(lam, delta))))
 
 
 def _dual_residuals(ws: Workspace, lam: np.ndarray, delta: np.ndarray | None) -> dict[str, float]:
@@ -263,7 +276,7 @@ def _dual_residuals(ws: Workspace, lam: np.ndarray, delta: np.ndarray | None) ->
         "dual_feasibility": float(max(0.0, -lam.min(initial=0.0))),
     }
     if delta is not None:
-        out["force_balance"] = float(np.linalg.norm(ws.qp.D.T @ lam + ws.qp.P))
+        out["force_balance"] = float(np.linalg.norm(ws.qp.D.T @ lam + ws.qp.P)) / _force_scale(ws, lam, delta)
     return out
 
 

@@ -28,6 +28,7 @@ import scipy.sparse as sp
 
 from ..errors import InputError, SolverError
 from ..linalg import Factorization, factorize
+from .augmented import RhoGrowth, augmented_lagrangian
 from .disc_qp import disc_qp
 from .penalty import solve_penalty
 from .qp import ContactQP, ContactSolution, check_arguments
@@ -211,20 +212,19 @@ OUTER = 60
 def _augmented(S: np.ndarray, lin: np.ndarray, Dh: np.ndarray, P: np.ndarray, m: int, g: np.ndarray,
                y0: np.ndarray | None, delta: np.ndarray | None, tol: float, max_iterations: int,
                history: list) -> tuple[np.ndarray, np.ndarray, int, bool]:
-    """min ½yᵀŜy + linᵀy over Λ ≥ 0, |T_j| ≤ g_j with D̂ᵀy = −P: the augmented Lagrangian (SMALBE's outer loop,
-    Dostál) around ``disc_qp`` on Ŝ + ρD̂D̂ᵀ with the linear term lin + D̂(δ + ρP), whose gradient is the gap and
-    slip at the travels δ + ρ(D̂ᵀy + P); then δ ← δ + ρ(D̂ᵀy + P) (the multiplier of the equality: the travels),
-    and ρ grows where the balance's error falls slowly (``RHO_GROWTH``). Stops when the inner QP converged with
-    the gaps of the true δ to ``tol`` and ‖D̂ᵀy + P‖ ≤ tol × its gross size. ``max_iterations`` bounds each inner
-    solve (at most ``OUTER`` of them). Returns y, δ, iterations, converged."""
+    """min ½yᵀŜy + linᵀy over Λ ≥ 0, |T_j| ≤ g_j with D̂ᵀy = −P: ``augmented.augmented_lagrangian`` around
+    ``disc_qp`` on Ŝ + ρD̂D̂ᵀ, ρ growing where the balance's error falls slowly (``RHO_GROWTH``). Stops when the
+    inner QP converged with the gaps of the true δ to ``tol`` and ‖D̂ᵀy + P‖ ≤ tol × its gross size.
+    ``max_iterations`` bounds each inner solve (at most ``OUTER`` of them). Returns y, δ, iterations, converged."""
     colnorm = float(np.max(np.sum(Dh**2, axis=0)))
     rho0 = RHO * max(float(np.max(np.diag(S), initial=0.0)), 1e-300) / max(colnorm, 1e-300)
-    rho, DD = rho0, Dh @ Dh.T
-    H = S + rho * DD
-    delta = np.zeros(Dh.shape[1]) if delta is None else delta.copy()
-    y = y0
-    total, last = 0, np.inf
-    for _ in range(OUTER):
+    DD = Dh @ Dh.T
+    H = {}  # Ŝ + ρD̂D̂ᵀ of the current ρ
+
+    def inner(delta: np.ndarray, rho: float, y: np.ndarray | None) -> tuple[np.ndarray, int, bool]:
+        if rho not in H:
+            H.clear()
+            H[rho] = S + rho * DD
         shifted = lin + Dh @ (delta + rho * P)
         # the inner tolerance relative to the true gaps' scale, not to ρD̂P's (which the linear term carries)
         scale = max(float(np.abs(lin + Dh @ delta).max(initial=0.0)), 1e-300)
@@ -233,21 +233,15 @@ def _augmented(S: np.ndarray, lin: np.ndarray, Dh: np.ndarray, P: np.ndarray, m:
         # restarted from 0 after 150 steps; the cause was its face step (``disc_qp._face_step``: no shorter step
         # along the circles' arc when the free variables allowed the whole step). Vessel on saddles, 20 × 24, dual:
         # without the restart 2 warm solves failed at 2000 steps before the fix; after it none, ≤ 76 steps each
-        y, its, ok = disc_qp(H, shifted, m, g, y0=y, tol=inner_tol, max_iterations=max_iterations, history=history)
-        total += its
-        if not ok:
-            break
-        h = Dh.T @ y + P
-        delta = delta + rho * h
-        size = max(float(np.linalg.norm(P)), float(np.linalg.norm(np.abs(Dh).T @ np.abs(y))), 1e-300)
-        error = float(np.linalg.norm(h)) / size
-        if error <= tol:
-            return y, delta, total, True
-        if error > last / RHO_GAIN and rho < RHO_MAX * rho0:
-            rho *= RHO_GROWTH
-            H = S + rho * DD
-        last = error
-    return y, delta, total, False
+        return disc_qp(H[rho], shifted, m, g, y0=y, tol=inner_tol, max_iterations=max_iterations, history=history)
+
+    def size(y: np.ndarray, _delta: np.ndarray) -> float:
+        return max(float(np.linalg.norm(P)), float(np.linalg.norm(np.abs(Dh).T @ np.abs(y))), 1e-300)
+
+    y, delta, total, ok = augmented_lagrangian(
+        inner, Dh, P, y0, np.zeros(Dh.shape[1]) if delta is None else delta.copy(), rho0, tol, OUTER, size,
+        budget=2 * OUTER * max_iterations, growth=RhoGrowth(RHO_GROWTH, RHO_GAIN, RHO_MAX))
+    return y, delta, total, ok
 
 
 def _tangential(sig: np.ndarray, k: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
