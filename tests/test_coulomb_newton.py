@@ -68,6 +68,7 @@ def test_case_reports_the_newton():
     fp = a["friction"]["fixed_point"]
     assert fp["newton"]["converged"] and fp["newton"]["fallback"] is None and fp["newton"]["iterations"] <= 15
     assert fp["iterations"] == 0 and fp["contraction"] is None and fp["converged"]
+    assert a["friction"]["method"] == "coulomb-active-set" and d["friction"]["method"] == "tresca-dual"
     assert "newton" not in d["friction"]["fixed_point"]
     scale = np.linalg.norm(d["friction"]["force"])
     assert np.linalg.norm(np.subtract(a["friction"]["force"], d["friction"]["force"])) < 1e-7 * scale
@@ -96,6 +97,7 @@ def test_polish_ends_the_fixed_point_on_the_law():
     full, rf = solve_coulomb(qp, C, c, bounds, solve_tresca_newton, factorization=fac, cache={}, accelerate=True,
                              warm=_warm)
     assert rp.converged and rf.converged and tries and rp.iterations <= rf.iterations
+    assert polished.method == "coulomb-active-set" and full.method == "tresca-active-set"  # who gave the answer
     for name, value in polished.residuals.items():
         assert value < 1e-9, name
     assert rel(polished.U, full.U) < 1e-8 and rel(polished.info["T"], full.info["T"]) < 1e-8

@@ -168,7 +168,7 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
     res = friction_residuals(qp, C, c, bounds, U, Lam, T)
     return ContactSolution(
         U=U, Lambda=Lam, pressure=Lam / qp.weights, active=Lam > 0, delta=None, iterations=it, residuals=res,
-        method="tresca-active-set", history=history, energy=qp.energy(U),
+        method="coulomb-active-set", history=history, energy=qp.energy(U),
         timings={"newton": time.perf_counter() - t0, "total": time.perf_counter() - t0},
         info={"T": T, "slip": C @ U - c, "bounds": bounds, "gap": gap, "fallback": fallback,
               "residual": history[-1]["residual"] if history else 0.0})
