@@ -242,7 +242,7 @@ def test_run_estimate_writes_accuracy_and_warns(tmp_path):
 
 
 def test_the_console_shows_each_estimate_next_to_its_number(capsys):
-    from shellcontact.cli import Console, _print_summary
+    from shellcontact.console import Console, print_summary
 
     summary = {"dofs": 10, "elements": 2, "energy": 1.0, "max_abs_w": 0.5, "unit_system": "SI",
                "probes": [{"x": 0.0, "phi": 90.0, "u": 0.0, "v": 0.0, "w": -0.5}],
@@ -251,7 +251,7 @@ def test_the_console_shows_each_estimate_next_to_its_number(capsys):
                "accuracy": {"max_abs_w": {"estimate": 0.0123}, "probes.0.w": {"estimate": 0.0123},
                             "contact.0.force_magnitude": {"estimate": 0.004}, "contact.0.zone.area": {"estimate": 0.3},
                             "stresses.top.von_mises_max": {"estimate": None}}}
-    _print_summary(Console(), summary)
+    print_summary(Console(), summary)
     out = capsys.readouterr().out
     for text in ("max|w| 0.5 m (±1.2 %)", "w=-0.5 m (±1.2 %)", "force 3 N (±0.4 %)", "zone area 2 m² (±30 %)",
                  "max von Mises 7 Pa (top"):

@@ -61,15 +61,14 @@ def test_light_touch_is_one_point_force_that_converges(light_touch):
 def test_point_force_on_console_report_and_map(light_touch, capsys):
     """The point force appears in the console summary, the report's headline table and pressure.png (a marker
     labelled with its force), with the same value."""
-    from shellcontact.cli import _print_summary
-    from shellcontact.console import Console
+    from shellcontact.console import Console, print_summary
     from shellcontact.outputs.figures.contact import plot_pressure
     from shellcontact.outputs.report import _headline
 
     res = light_touch[0]
     s = res.summary()
     force = s["contact"][0]["rim"]["point_forces"][0]["force"]
-    _print_summary(Console(), s)
+    print_summary(Console(), s)
     printed = capsys.readouterr().out
     assert f"point force {force:g} N at x=0 m phi=90 deg" in printed, printed
     assert "point force" in _headline(s) and "rim line force" not in _headline(s)

@@ -310,3 +310,23 @@ def test_saddle_horn_line_loads_are_sampled_along_their_length(coarse_vessel):
             xs = [q["x"] for q in own]
             assert max(xs) - min(xs) >= 0.5 * pl["length"] and max(xs) - min(xs) < pl["length"]
             assert rim["line_loads"]["peak_line_force"] >= pl["mean_line_force"]
+
+
+def test_force_at_scattered_points_is_kept_and_flagged(capsys) -> None:
+    """A 30 mm thick vessel on its saddles at 40 × 48: each saddle carries 48 kN on six rows round which no zone
+    is drawn (zone area 0) and which no point force holds. The decomposition used to be missing (rim None: the
+    48 kN in no headline); now it is kept as interior force, `kind` "unresolved", flagged, and the console says
+    to refine. Checked against the total normal force (conservation)."""
+    from shellcontact.console import Console, print_summary
+
+    case = load_case(EXAMPLES / "vessel_saddles.toml",
+                     ["shell.thickness=0.03", "mesh.nx=40", "mesh.nphi=48"])
+    result = shellcontact.solve(case)
+    entries = result.contact.summary()
+    for e in entries:
+        rim = e["rim"]
+        assert rim["kind"] == "unresolved" and rim["interior_resolved"] is False
+        parts = rim["force"] + rim["line_loads"]["force"] + rim["interior_force"] + rim["point_force"]
+        assert parts == pytest.approx(e["total_normal_force"], rel=1e-12) and e["total_normal_force"] > 4e4
+    print_summary(Console(), {"dofs": 1, "elements": 1, "energy": 0.0, "max_abs_w": 0.0, "contact": entries})
+    assert capsys.readouterr().out.count("at scattered points no zone resolves (refine)") == 2

@@ -29,7 +29,7 @@ import traceback
 from pathlib import Path
 
 from . import __version__
-from .console import Console, restore_logging, setup_logging
+from .console import Console, print_summary, restore_logging, setup_logging
 from .errors import InputError, SolverError
 from .solvers.methods import METHODS
 
@@ -69,10 +69,6 @@ def _output(args: argparse.Namespace, suffix: str) -> Path:
     return expand_user(args.output)  # "--output=~/x": bash leaves the ~; expanded once, here
 
 
-def _vec(v) -> str:
-    return "[" + ", ".join(f"{c:.4g}" for c in v) + "]"
-
-
 def _check_profiles(args: argparse.Namespace, shell) -> None:
     """--profile-x / --profile-phi must lie on the shell (the profile is the mesh line nearest them)."""
     ranges = {"--profile-x": (args.profile_x, shell.x_min, shell.x_max),
@@ -80,76 +76,6 @@ def _check_profiles(args: argparse.Namespace, shell) -> None:
     for name, (v, lo, hi) in ranges.items():
         if v is not None and not lo <= v <= hi:
             raise InputError(name, f"must lie on the shell, in [{lo:.6g}, {hi:.6g}], got {v:g}")
-
-
-def _print_summary(con: Console, s: dict) -> None:
-    from .units import bracket, with_unit
-
-    system, acc = s.get("unit_system", "SI"), s.get("accuracy", {})
-
-    def q(value: float, kind: str, spec: str = ".6g", path: str = "") -> str:  # a figure with its unit (and
-        e = acc.get(path, {}).get("estimate")  # with --estimate its estimated relative error)
-        return with_unit(format(value, spec), kind, system) + (f" (±{100 * e:.2g} %)" if e is not None else "")
-
-    def say(head: str, parts: list[str]) -> None:  # console lines of at most CONSOLE_WIDTH characters
-        lines, fresh = [head], not head
-        for part in parts:
-            if not fresh and len(lines[-1]) + 2 + len(part) > CONSOLE_WIDTH:
-                lines.append("    ")
-                fresh = True
-            lines[-1] += ("" if fresh else " " if lines[-1].endswith(":") else "  ") + part
-            fresh = False
-        con.print("\n".join(lines))
-
-    say("", [f"dofs {s['dofs']}", f"elements {s['elements']}", f"energy {q(s['energy'], 'energy')}",
-             f"max|w| {q(s['max_abs_w'], 'length', path='max_abs_w')}"])
-    for j, p in enumerate(s.get("probes", [])):
-        say(f"probe x={q(p['x'], 'length', 'g')} phi={p['phi']:g} deg:",
-            [f"{k}={q(p[k], 'length', path=f'probes.{j}.{k}')}" for k in "uvw"])
-    contact = s.get("contact")
-    if contact:
-        for i, c in enumerate(contact if isinstance(contact, list) else [contact]):
-            parts = [
-                f"{name} {q(c[k], kind, path=f'contact.{i}.{k}')}"
-                for k, name, kind in (("force_magnitude", "force", "force"),
-                                      ("total_normal_force", "total normal force", "force"))
-                if isinstance(c.get(k), (int, float))
-            ]
-            zone = c.get("zone")
-            if isinstance(zone, dict) and isinstance(zone.get("area"), (int, float)):
-                parts.append(f"zone area {q(zone['area'], 'area', path=f'contact.{i}.zone.area')}")
-            rim = c.get("rim")
-            if isinstance(rim, dict) and rim.get("force"):  # the converging decomposition (rim.py): the area rim
-                value = q(rim["mean_line_force"], "force/length", path=f"contact.{i}.rim.mean_line_force")
-                parts.append(f"rim line force (mean) {value}")
-            loads = rim.get("line_loads") if isinstance(rim, dict) else None
-            if isinstance(loads, dict) and loads.get("force"):  # ... and the line loads, apart
-                value = q(loads["mean_line_force"], "force/length", path=f"contact.{i}.rim.line_loads.mean_line_force")
-                parts.append(f"line load {value} over {q(loads['length'], 'length', '.4g')}")
-            for j, pf in enumerate(rim.get("point_forces", []) if isinstance(rim, dict) else []):
-                parts.append(f"point force {q(pf['force'], 'force', path=f'contact.{i}.rim.point_forces.{j}.force')} "
-                             f"at x={q(pf['x'], 'length', '.4g')} phi={pf['phi']:.4g} deg")
-            say(f"punch {i}:", parts)
-    st = s.get("stresses")
-    if st:
-        name, worst = max(st.items(), key=lambda kv: kv[1]["von_mises_max"])
-        util = f"  utilisation {worst['utilisation_max']:.3g}" if "utilisation_max" in worst else ""
-        con.print(f"max von Mises {q(worst['von_mises_max'], 'pressure', path=f'stresses.{name}.von_mises_max')} "
-                  f"({name} surface, x={q(worst['at']['x'], 'length', '.4g')} phi={worst['at']['phi']:.4g} deg){util}")
-    eq = s.get("equilibrium")
-    if eq:
-        terms = [f"{k} {_vec(eq[k]['force'])}" for k in ("applied", "contact", "reactions") if k in eq]
-        say(f"equilibrium, forces{bracket('force', system)}:", [*terms, f"residual {_vec(eq['residual']['force'])} "
-                                                               f"(relative {eq['relative_residual']:.1e})"])
-    kkt = s.get("kkt")
-    if isinstance(kkt, dict) and kkt:
-        say("KKT residuals:", [f"{k} {q(v, _KKT_KINDS.get(k, 'strain'), '.3e')}" for k, v in kkt.items()
-                               if isinstance(v, float)])
-
-
-CONSOLE_WIDTH = 100  # the summary's lines wrap here (issue 23: 219 characters)
-#: the kind of each unscaled KKT residual (solvers/kkt.py); the others are relative
-_KKT_KINDS = {"penetration": "length", "dual_feasibility": "force"}
 
 
 def _closing(n_warnings: int) -> str:
@@ -198,7 +124,7 @@ def cmd_run(args: argparse.Namespace, con: Console) -> int:
         )
     for name in written:
         log.info("wrote %s", out / name)
-    _print_summary(con, summary)
+    print_summary(con, summary)
     if est is not None:
         con.print("\n".join(describe(est)))
     con.print(f"wrote {out}/: {', '.join(written)}" + _closing(n_warnings))

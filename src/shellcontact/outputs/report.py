@@ -277,6 +277,10 @@ def _headline(s: Mapping[str, Any]) -> str:
                              f"at x = {with_unit(_g(pf['x']), 'length', system)}, φ = {_g(pf['phi'])}°: carrying "
                              "points within the elements round one vertex (a zone the mesh sees as a point: refine "
                              "to tell a point from a small area), left out of the line/interior split"])
+            if rim.get("kind") == "unresolved":  # carrying rows round which no zone is drawn (rim.py)
+                rows.append([f"{who}force at scattered points", rim["interior_force"], u("force"),
+                             "carrying points that form neither a zone nor a point force on this mesh: its split "
+                             "into rim, line loads and interior is not resolved; refine"])
             loads = rim.get("line_loads") or {}
             if loads.get("force"):  # line contacts (a plate on a pipe, a saddle's horn): apart from the area rim
                 rows.append([f"{who}line load", loads["mean_line_force"], u("force/length"),
