@@ -38,6 +38,7 @@ import scipy.sparse as sp
 
 from ..linalg import Factorization
 from .active_set import solve_active_set
+from .pair_block import PairBlock
 from .qp import ContactQP, ContactSolution, check_arguments
 from .schur import Workspace, deepest_violations, default_growth
 from .tresca import _BLOCK, _check, _pair_rows, balance, force_scale, friction_residuals, slips, solve_tresca_dual
@@ -96,7 +97,17 @@ def _pair_products(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, ws: Works
     X: dict = cache.setdefault("X", {})
     BX: dict = cache.setdefault("BX", {})
     CX: dict = cache.setdefault("CX", {})
-    new = np.array([j for j in pairs if j not in X], dtype=int)
+    new = np.array([j for j in pairs if j not in BX], dtype=int)
+    block = cache.get("block")
+    if block is None and PairBlock.applies(qp, ws.fact):  # rows: those of a restricted QP (``tresca_screened``)
+        block = cache["block"] = PairBlock(qp, C, ws.fact, cache.get("rows", np.arange(qp.m)), cache.get("tail"))
+    if block is not None and new.size:  # from the joint Schur complement (``pair_block``): no solve per pair
+        inside = new[new < block.k]
+        if inside.size:
+            BXn, CXn = block.products(inside)
+            for i, j in enumerate(inside):
+                BX[j], CX[j] = BXn[:, 2 * i:2 * i + 2], CXn[:, 2 * i:2 * i + 2]
+        new = new[new >= block.k]
     if new.size:
         RT = C[_pair_rows(new)].T.tocsc()
         Xn = np.empty((qp.n, RT.shape[1]))
