@@ -272,7 +272,10 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     t3 = time.perf_counter()
     if fallback is not None:  # the dual from this iterate (module docstring)
         # its Ŝ from this Workspace's Schur columns and pair solves (no second solve per row or pair)
-        dual_cache = {"SBB": ws.block(np.arange(m)), "X": cache["X"]} if "X" in cache else None
+        dual_cache = {"SBB": ws.block(np.arange(m)), "X": cache.setdefault("X", {}), "u0": ws.U0}
+        pairs = np.flatnonzero(candidates)
+        BXp, SPP = _pair_products(qp, C, pairs, ws, cache)
+        dual_cache["given"] = (pairs, np.block([[dual_cache["SBB"], BXp], [BXp.T, 0.5 * (SPP + SPP.T)]]))
         sol = solve_tresca_dual(qp, C, c, g, tol=tol, factorization=ws.fact, cache=dual_cache, E=E,
                                 initial=np.concatenate([np.maximum(Lam, 0.0), T] + ([delta] if qp.k else [])))
         sol.method = "tresca-active-set"
