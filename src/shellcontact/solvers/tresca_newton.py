@@ -16,8 +16,9 @@ pairs with g_j > 0 — and solves the Newton system in y = (Λ, T):
 T̃ = g T/max(g, |T|) (HSW's damping of T in the derivative, which keeps the matrix regular away from the
 solution). With U = A⁻¹(F + BᵀΛ + CᵀT), gap and σ are affine in y through Ŝ = B̂A⁻¹B̂ᵀ, so the system is
 dense of order |𝒜| + 2·#{g_j > 0}: its normal block comes from ``schur.Workspace`` (columns of S only for
-rows that were ever closed, cached), the pair columns A⁻¹C_jᵀ from blocked solves with the same
-factorisation (without refinement: the steps use the true gaps and slips, so round-off in Ŝ is corrected
+rows that were ever closed, cached), the pair products B A⁻¹C_jᵀ, C A⁻¹C_jᵀ from the Schur complement of a
+factorisation bordered by the pairs' rows too (``pair_block``, where ``factorization`` is one) or else from
+blocked solves A⁻¹C_jᵀ with the same factorisation (without refinement: the steps use the true gaps and slips, so round-off in Ŝ is corrected
 like iterative refinement), kept in ``cache`` between calls (Coulomb's fixed point changes only g). The
 iterate's gaps and slips come from one solve for U per iteration, so open rows cost nothing.
 
