@@ -18,9 +18,10 @@ solution). With U = A⁻¹(F + BᵀΛ + CᵀT), gap and σ are affine in y throu
 dense of order |𝒜| + 2·#{g_j > 0}: its normal block comes from ``schur.Workspace`` (columns of S only for
 rows that were ever closed, cached), the pair products B A⁻¹C_jᵀ, C A⁻¹C_jᵀ from the Schur complement of a
 factorisation bordered by the pairs' rows too (``pair_block``, where ``factorization`` is one) or else from
-blocked solves A⁻¹C_jᵀ with the same factorisation (without refinement: the steps use the true gaps and slips, so round-off in Ŝ is corrected
-like iterative refinement), kept in ``cache`` between calls (Coulomb's fixed point changes only g). The
-iterate's gaps and slips come from one solve for U per iteration, so open rows cost nothing.
+blocked solves A⁻¹C_jᵀ with the same factorisation (without refinement: the steps use the true gaps and
+slips, so round-off in Ŝ is corrected like iterative refinement), kept in ``cache`` between calls (Coulomb's
+fixed point changes only g). The iterate's gaps and slips come from one solve for U per iteration,
+so open rows cost nothing.
 
 Stops when the equations' residual (NCP functions scaled by the largest force and bound) is ≤ tol, or
 ≤ 1000·tol once the sets hold and it stops falling (round-off). Where a set returns with no smaller
