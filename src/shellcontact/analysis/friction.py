@@ -38,6 +38,7 @@ from ..problem.case import Case
 from ..problem.options import SolverOptions
 from ..solvers.active_set import solve_active_set
 from ..solvers.coulomb_newton import solve_friction_newton
+from ..solvers.pair_block import border_rows, factorize_pairs
 from ..solvers.qp import ContactSolution
 from ..solvers.screening import solve_screened
 from ..solvers.tresca import normal_part, solve_tresca_dual, solve_tresca_penalty
@@ -223,6 +224,12 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
                                                  tol=opts.tolerance, initial_active=setup.initial_active))
             options["screen"], options["solver"] = setup.screen, solve_tresca_newton
             tresca = solve_tresca_screened
+            # A bordered by the normal and tangential rows of the frictionless contact set (``pair_block``): the
+            # pairs' products from its Schur complement, no solve per pair; those rows are the screen
+            rows = border_rows(start.Lambda, qp.gap(start.U, start.delta)) if np.any(start.Lambda > 0) else []
+            joint = factorize_pairs(qp, C, rows, opts.backend) if len(rows) else None
+            if joint is not None:
+                options["factorization"], options["screen"] = joint, rows
 
         law = np.stack([mu * scale, tresca_g], axis=1)
         if np.any(mu > 0) and E is None:  # the whole law by Newton (Coulomb without δ; the case's Tresca

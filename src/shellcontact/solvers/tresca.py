@@ -130,7 +130,11 @@ def _pair_rows(pairs: np.ndarray) -> np.ndarray:
 def dual_hessian(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, fac: Factorization, cache: dict) -> np.ndarray:
     """Ŝ = B̂ A⁻¹ B̂ᵀ, dense, for B̂ = [B; the pairs ``pairs`` of C]. The normal block and the solves A⁻¹C_jᵀ of
     every pair met so far stay in ``cache``: a pair whose bound is 0 has T_j = 0 and costs nothing (Coulomb
-    and the case's Tresca bound only the rows in contact)."""
+    and the case's Tresca bound only the rows in contact). ``cache["given"]`` = (pairs, Ŝ): Ŝ from the caller's
+    products for those pairs (``tresca_newton``'s fallback on the joint border of ``pair_block``: no solves)."""
+    given = cache.get("given")
+    if given is not None and np.array_equal(given[0], pairs):
+        return given[1]
     if "SBB" not in cache:
         SBB = qp.B @ _solves(qp.B, fac)
         cache.update(SBB=0.5 * (SBB + SBB.T), X={})

@@ -16,10 +16,12 @@ pairs with g_j > 0 — and solves the Newton system in y = (Λ, T):
 T̃ = g T/max(g, |T|) (HSW's damping of T in the derivative, which keeps the matrix regular away from the
 solution). With U = A⁻¹(F + BᵀΛ + CᵀT), gap and σ are affine in y through Ŝ = B̂A⁻¹B̂ᵀ, so the system is
 dense of order |𝒜| + 2·#{g_j > 0}: its normal block comes from ``schur.Workspace`` (columns of S only for
-rows that were ever closed, cached), the pair columns A⁻¹C_jᵀ from blocked solves with the same
-factorisation (without refinement: the steps use the true gaps and slips, so round-off in Ŝ is corrected
-like iterative refinement), kept in ``cache`` between calls (Coulomb's fixed point changes only g). The
-iterate's gaps and slips come from one solve for U per iteration, so open rows cost nothing.
+rows that were ever closed, cached), the pair products B A⁻¹C_jᵀ, C A⁻¹C_jᵀ from the Schur complement of a
+factorisation bordered by the pairs' rows too (``pair_block``, where ``factorization`` is one) or else from
+blocked solves A⁻¹C_jᵀ with the same factorisation (without refinement: the steps use the true gaps and
+slips, so round-off in Ŝ is corrected like iterative refinement), kept in ``cache`` between calls (Coulomb's
+fixed point changes only g). The iterate's gaps and slips come from one solve for U per iteration,
+so open rows cost nothing.
 
 Stops when the equations' residual (NCP functions scaled by the largest force and bound) is ≤ tol, or
 ≤ 1000·tol once the sets hold and it stops falling (round-off). Where a set returns with no smaller
@@ -38,6 +40,7 @@ import scipy.sparse as sp
 
 from ..linalg import Factorization
 from .active_set import solve_active_set
+from .pair_block import PairBlock
 from .qp import ContactQP, ContactSolution, check_arguments
 from .schur import Workspace, deepest_violations, default_growth
 from .tresca import _BLOCK, _check, _pair_rows, balance, force_scale, friction_residuals, slips, solve_tresca_dual
@@ -96,7 +99,17 @@ def _pair_products(qp: ContactQP, C: sp.csr_matrix, pairs: np.ndarray, ws: Works
     X: dict = cache.setdefault("X", {})
     BX: dict = cache.setdefault("BX", {})
     CX: dict = cache.setdefault("CX", {})
-    new = np.array([j for j in pairs if j not in X], dtype=int)
+    new = np.array([j for j in pairs if j not in BX], dtype=int)
+    block = cache.get("block")
+    if block is None and PairBlock.applies(qp, ws.fact):  # rows: those of a restricted QP (``tresca_screened``)
+        block = cache["block"] = PairBlock(qp, C, ws.fact, cache.get("rows", np.arange(qp.m)), cache.get("tail"))
+    if block is not None and new.size:  # from the joint Schur complement (``pair_block``): no solve per pair
+        inside = new[new < block.k]
+        if inside.size:
+            BXn, CXn = block.products(inside)
+            for i, j in enumerate(inside):
+                BX[j], CX[j] = BXn[:, 2 * i:2 * i + 2], CXn[:, 2 * i:2 * i + 2]
+        new = new[new >= block.k]
     if new.size:
         RT = C[_pair_rows(new)].T.tocsc()
         Xn = np.empty((qp.n, RT.shape[1]))
@@ -261,7 +274,10 @@ def solve_tresca_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndar
     t3 = time.perf_counter()
     if fallback is not None:  # the dual from this iterate (module docstring)
         # its Ŝ from this Workspace's Schur columns and pair solves (no second solve per row or pair)
-        dual_cache = {"SBB": ws.block(np.arange(m)), "X": cache["X"]} if "X" in cache else None
+        dual_cache = {"SBB": ws.block(np.arange(m)), "X": cache.setdefault("X", {}), "u0": ws.U0}
+        pairs = np.flatnonzero(candidates)
+        BXp, SPP = _pair_products(qp, C, pairs, ws, cache)
+        dual_cache["given"] = (pairs, np.block([[dual_cache["SBB"], BXp], [BXp.T, 0.5 * (SPP + SPP.T)]]))
         sol = solve_tresca_dual(qp, C, c, g, tol=tol, factorization=ws.fact, cache=dual_cache, E=E,
                                 initial=np.concatenate([np.maximum(Lam, 0.0), T] + ([delta] if qp.k else [])))
         sol.method = "tresca-active-set"

@@ -54,14 +54,18 @@ def solve_tresca_screened(qp: ContactQP, C: sp.csr_matrix, c: np.ndarray, g: np.
         key = order.tobytes()
         if cache.get("key") != key:  # a new row set: a new Workspace (the dense Schur complement's prefix reused)
             sub = qp.restrict(order)
-            cache.update(key=key, order=order, sub=sub, inner={"ws": Workspace(sub, factorization)})
+            cache.update(key=key, order=order, sub=sub, inner={"ws": Workspace(sub, factorization), "rows": order,
+                                                               "tail": cache.setdefault("tail", {})})
         sub, inner = cache["sub"], cache["inner"]
         pr = _pair_rows(order)
         start = None if initial is None else np.concatenate([lam0[order], np.asarray(initial[m:3 * m]).reshape(-1, 2)
                                                              [order].ravel(), np.asarray(initial[3 * m:])])
-        sol = solver(sub, C[pr], c[pr], g[order], factorization=factorization, initial=start, cache=inner,
-                     E=None if E is None else E[pr], **options)
+        if E is not None:  # only the Tresca solvers take E (``coulomb_newton`` has no δ columns)
+            options["E"] = E[pr]
+        sol = solver(sub, C[pr], c[pr], g[order], factorization=factorization, initial=start, cache=inner, **options)
         gap = qp.gap(sol.U, sol.delta)
+        if g.ndim == 2 and sol.info.get("fallback") is not None:  # a whole-law Newton that did not converge: its
+            return _whole(qp, C, c, g, sol, order, gap, rounds, E)  # iterate's penetrations call no rows in
         outside = ~_mask(order, m) & (gap < 0)
         if not outside.any() or -gap[outside].min() <= options.get("tol", 1e-10) * max(float(np.abs(gap).max()),
                                                                                        1e-300):
