@@ -127,12 +127,17 @@ def test_three_methods_agree_and_penalty_to_order_kappa():
 
 def _moved_gauge(original, planes: bool):
     """``supports.gauge_dofs`` moved off its choice: to other vertices on the same planes of symmetry
-    (``planes``), or to vertices on no plane of symmetry of the ring."""
+    (``planes``: the planes φ = const through the chosen dofs, at another x, as the chosen ring x = 0, the mesh's
+    mirror plane, is left out), or to vertices on no plane of symmetry of the ring."""
 
     def gauge(space, motions, excluded, modes=None):
         shifted = excluded.copy()
-        shifted[original(space, motions, excluded, modes)] = True
-        if not planes:
+        chosen = original(space, motions, excluded, modes)
+        shifted[chosen] = True
+        if planes:
+            ring = np.flatnonzero(np.isin(space.mesh.p[0], space.mesh.p[0, chosen % space.n_p2]))
+            shifted[space.u_dofs(ring)] = shifted[space.v_dofs(ring)] = True
+        else:
             phi = np.degrees(space.mesh.p[1] / space.mesh.shell.radius) % 90.0
             on = np.flatnonzero(np.isclose(phi, 0.0) | np.isclose(phi, 90.0))
             shifted[space.u_dofs(on)] = shifted[space.v_dofs(on)] = True

@@ -298,7 +298,9 @@ def _choose_gauge(space: ShellSpace, R: np.ndarray, excluded: np.ndarray, vertic
     cand = np.concatenate([space.u_dofs(vertices), space.v_dofs(vertices)])
     cand = np.sort(cand[~excluded[cand]])
     R = R[cand]  # (candidates, k)
-    scale = np.abs(R).max()
+    scale = float(np.abs(R).max()) if R.size else 0.0
+    if scale == 0.0:
+        raise InputError("supports", "no tangential dof can carry the gauge of the free rigid motions")
     chosen: list[int] = []
     for j in range(R.shape[1]):
         size = np.abs(R[:, j])
