@@ -127,12 +127,17 @@ def test_three_methods_agree_and_penalty_to_order_kappa():
 
 def _moved_gauge(original, planes: bool):
     """``supports.gauge_dofs`` moved off its choice: to other vertices on the same planes of symmetry
-    (``planes``), or to vertices on no plane of symmetry of the ring."""
+    (``planes``: the planes φ = const through the chosen dofs, at another x, as the chosen ring x = 0, the mesh's
+    mirror plane, is left out), or to vertices on no plane of symmetry of the ring."""
 
     def gauge(space, motions, excluded, modes=None):
         shifted = excluded.copy()
-        shifted[original(space, motions, excluded, modes)] = True
-        if not planes:
+        chosen = original(space, motions, excluded, modes)
+        shifted[chosen] = True
+        if planes:
+            ring = np.flatnonzero(np.isin(space.mesh.p[0], space.mesh.p[0, chosen % space.n_p2]))
+            shifted[space.u_dofs(ring)] = shifted[space.v_dofs(ring)] = True
+        else:
             phi = np.degrees(space.mesh.p[1] / space.mesh.shell.radius) % 90.0
             on = np.flatnonzero(np.isclose(phi, 0.0) | np.isclose(phi, 90.0))
             shifted[space.u_dofs(on)] = shifted[space.v_dofs(on)] = True
@@ -297,3 +302,20 @@ def test_pipe_on_rollers_on_a_coarse_mesh_solves_with_both_exact_methods():
         assert np.allclose(got, forces, rtol=1e-6), (method, got, forces)
         assert np.allclose(got, [2000.0, 1000.0, 1000.0], rtol=1e-9), (method, got)
         assert abs(s["contact"][0]["punch_travel"] / ref["contact"][0]["punch_travel"] - 1) <= 1e-5
+
+
+@pytest.mark.parametrize(("pattern", "mirrored"), [("alternate", True), ("crossed", True), ("right", False)])
+def test_the_gauge_lies_on_the_mesh_mirror_plane_when_there_is_one(pattern: str, mirrored: bool):
+    """The ring's mesh (x in [−0.15, 0.15] m, 8 cells along x) is its own mirror image x → −x with alternating
+    or crossed diagonals, not with all diagonals one way (checked against the mirrored coordinates and
+    triangles: ``ShellMesh.x_mirror``); the gauge dofs then lie on the mirror plane x = 0, each its own image,
+    and otherwise where the general rule puts them (the first ring in mesh order, x = −0.15 m)."""
+    res = sc.solve(full_case(f"mesh.pattern={pattern}"), method="active-set")
+    space = res.solution.space
+    perm = space.mesh.x_mirror()
+    assert (perm is not None) == mirrored
+    if mirrored:
+        p = space.mesh.p
+        assert np.allclose(p[:, perm], np.stack([-p[0], p[1]]), atol=1e-12)
+    x = space.mesh.p[0, res.discretization.reduction.gauge % space.n_p2]
+    assert np.allclose(x, 0.0 if mirrored else space.mesh.shell.x_min, atol=1e-12), x

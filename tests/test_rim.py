@@ -277,10 +277,8 @@ def test_saddle_interior_force_is_not_swallowed_by_the_rim(coarse_vessel):
     saddle: area rim 13 006 N, line loads (horns) 2 x 8 022 N, interior 4 851 N (1 827 N of it next to idle
     rows), 25.7 kPa over the 0.118 m² that carries; checked: the interior's share of the force is what the
     carrying rows off the rim and horns hold
-    (> 0), the parts sum to the total normal force (conservation, to round-off), and the mirror saddles agree
-    (measured 1.3e-6 on the interior force, 6 mN, against 1e-8 in the solve's total; bound 1e-5: the solution
-    itself is not mirror-symmetric here, its gaps at mirror rows differ by up to 6.2e-8 m of 67 µm, mostly a yaw of
-    4e-9 rad, the same at solver tolerance 1e-10 and 1e-12 — not the decomposition's)."""
+    (> 0) and the parts sum to the total normal force (conservation, to round-off). The mirror saddles:
+    ``test_mirror_saddles_agree_to_round_off``."""
     left, right = coarse_vessel.summary()["contact"]
     for e in (left, right):
         rim = e["rim"]
@@ -289,8 +287,32 @@ def test_saddle_interior_force_is_not_swallowed_by_the_rim(coarse_vessel):
         assert rim["interior_force"] > 0.05 * e["total_normal_force"] or not rim["interior_resolved"]
         assert rim["interior_force"] > 0.0 and rim["interior_pressure"] > 0.0  # measured 4 851 N, 25.7 kPa
         assert not rim["interior_resolved"]  # two elements across: the band holds interior pressure
-    for key in ("force", "interior_force", "length", "interior_area"):
-        assert left["rim"][key] == pytest.approx(right["rim"][key], rel=1e-5), key
+
+
+def test_mirror_saddles_agree_to_round_off(coarse_vessel):
+    """The saddles at x = ±3.5 m are mirror images (x → −x) on a mirror-symmetric mesh, and the gauge of the free
+    rigid motions lies on the mirror plane x = 0 (``supports.gauge_dofs``), so the solution is mirror-symmetric:
+    its yaw and pitch (rotations about z and y, odd under the mirror) vanish and every number of the two
+    saddles' decompositions agrees. Measured: relative differences ≤ 1.9e-12 (rim force 1.3e-12, interior force
+    5.7e-13, line loads 1.9e-12), yaw 3.5e-15 rad; bound 1e-11. Before, the gauge at the end x = −5 m (its
+    first vertices in mesh order) shifted the solution by the rigid motions' interpolation error, O(h⁴):
+    rim force 5.5e-7, interior force 1.3e-6 (6 mN), line loads 6.3e-8 apart, a yaw of 2.2e-7 rad; the same
+    gauge mirrored by hand swapped the two saddles' numbers exactly."""
+    left, right = coarse_vessel.summary()["contact"]
+    pairs = {key: (left["rim"][key], right["rim"][key])
+             for key in ("force", "interior_force", "length", "mean_line_force", "interior_area")}
+    pairs["line loads' force"] = (left["rim"]["line_loads"]["force"], right["rim"]["line_loads"]["force"])
+    pairs["line loads' mean"] = (left["rim"]["line_loads"]["mean_line_force"],
+                                 right["rim"]["line_loads"]["mean_line_force"])
+    pairs["total normal force"] = (left["total_normal_force"], right["total_normal_force"])
+    for key, (a, b) in pairs.items():
+        print(f"\n {key}: {a:.15g} vs {b:.15g} ({abs(a - b) / abs(a):.2g})")
+        assert a == pytest.approx(b, rel=1e-11), key
+    rigid = coarse_vessel.summary()["rigid_motion"]
+    sag = abs(rigid["translation"][2])  # 0.59 mm: the vessel settles into its saddles
+    radius = coarse_vessel.case.shell.radius
+    for k in (1, 2):  # rotations about y and z, by the radius: measured 5e-16, 3.5e-15 m against 5.9e-4 m
+        assert abs(rigid["rotation"][k]) * radius <= 1e-11 * sag, rigid
 
 
 def test_saddle_horn_line_loads_are_sampled_along_their_length(coarse_vessel):

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 from skfem import MeshTri
 
 from ..errors import InputError
@@ -174,6 +175,17 @@ class ShellMesh:
         if times < 0:
             raise InputError("mesh.refine", f"must be >= 0, got {times}")
         return ShellMesh(self.shell, self.mesh.refined(times) if times else self.mesh)
+
+    def x_mirror(self) -> np.ndarray | None:
+        """The vertex permutation of the mirror x → x_min + x_max − x when it maps the mesh onto itself (every
+        vertex onto a vertex, every triangle onto a triangle), else None."""
+        p = self.p
+        image = np.stack([self.shell.x_min + self.shell.x_max - p[0], p[1]])
+        dist, perm = cKDTree(p.T).query(image.T)
+        if np.any(dist > 10.0 * self._tol()):
+            return None
+        own = np.unique(np.sort(self.t, axis=0), axis=1)
+        return perm if np.array_equal(own, np.unique(np.sort(perm[self.t], axis=0), axis=1)) else None
 
     def _tol(self) -> float:
         sh = self.shell

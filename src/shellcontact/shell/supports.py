@@ -8,6 +8,7 @@ On an edge φ = const the roles of x and s swap.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -251,24 +252,55 @@ def gauge_dofs(space: ShellSpace, motions: np.ndarray, excluded: np.ndarray,
                modes: np.ndarray | None = None) -> np.ndarray:
     """One dof per free motion, fixed to zero in the elastic part so that the reduced stiffness is regular
     (a few fixed dofs remove the kernel, as for FETI's floating subdomains). Only tangential dofs (u, v at
-    the vertices) are candidates, never w. For each motion in turn (those the elements represent exactly, the
-    translation along and the rotation about x, first): among the candidates where it moves at least half
-    as much as where it moves most and that keep the chosen rows of the motions well conditioned (a smallest
-    singular value at least half the best one), the one where it moves most (then the best conditioned, then
-    the first in mesh order). Two dofs a row apart would leave the reduced stiffness nearly singular (the
-    ring's rotation about x and translation along z told apart by v at φ = 0 and 0.94°: cos φ − 1 ≈ 1e-4
-    there). On a ring between plates the choice is v at φ = 0 (rotation about x), 90° or 270° (translation
-    along y) and the vertex nearest 180° (translation along z). The choice splits the displacement into
-    elastic and rigid parts only: the contact does not depend on it (floating.py)."""
+    the vertices) are candidates, never w. On a mesh that is its own mirror image in x (``x_mirror``, with
+    supports alike at both ends) only the vertices on the mirror plane are, when they can carry the gauge: a
+    dof there is its own mirror image, so the gauge is mirror-invariant and mirror-image problems get the
+    same answer to round-off (the interpolated rigid motions are not exactly stress-free in V_h, so the
+    choice shifts the solution by their interpolation error, O(h⁴): a gauge at one end, x = −5 m, made the
+    mirror saddles of examples/vessel_saddles.toml differ by 1.3e-6 in their interior force at 48 × 48).
+    For each motion in turn (those the elements represent exactly, the translation along and the rotation
+    about x, first): among the candidates where it moves at least half as much as where it moves most and
+    that keep the chosen rows of the motions well conditioned (a smallest singular value at least half the
+    best one), the one where it moves most (then the best conditioned, then the first in mesh order). Two
+    dofs a row apart would leave the reduced stiffness nearly singular (the ring's rotation about x and
+    translation along z told apart by v at φ = 0 and 0.94°: cos φ − 1 ≈ 1e-4 there). On a ring between
+    plates the choice is v at φ = 0 (rotation about x), 90° or 270° (translation along y) and the vertex
+    nearest 180° (translation along z). The choice splits the displacement into elastic and rigid parts
+    only: the contact does not depend on it beyond that interpolation error (floating.py)."""
     if motions.size == 0:
         return np.zeros(0, dtype=int)
-    v = np.arange(space.mesh.nvertices)
-    cand = np.concatenate([space.u_dofs(v), space.v_dofs(v)])
-    cand = np.sort(cand[~excluded[cand]])
     # the motions P2 holds exactly (u = const, v = const) first: they move every vertex alike
     motions = motions[np.argsort(np.any(motions[:, [1, 2, 4, 5]] != 0.0, axis=1), kind="stable")]
-    R = ((rigid_modes(space) if modes is None else modes) @ motions.T)[cand]  # (candidates, k)
-    scale = np.abs(R).max()
+    R = (rigid_modes(space) if modes is None else modes) @ motions.T  # (ndofs, k)
+    v = np.arange(space.mesh.nvertices)
+    plane = _mirror_plane_vertices(space, excluded)
+    if plane.size:
+        with contextlib.suppress(InputError):  # the plane's dofs cannot tell the motions apart: anywhere
+            return _choose_gauge(space, R, excluded, plane)
+    return _choose_gauge(space, R, excluded, v)
+
+
+def _mirror_plane_vertices(space: ShellSpace, excluded: np.ndarray) -> np.ndarray:
+    """The vertices on the mesh's mirror plane x = (x_min + x_max)/2 when the mesh and the ``excluded`` u, v
+    dofs are mirror images of themselves (``ShellMesh.x_mirror``), else none."""
+    perm = space.mesh.x_mirror()
+    if perm is None:
+        return np.zeros(0, dtype=int)
+    v = np.arange(space.mesh.nvertices)
+    for dofs in (space.u_dofs, space.v_dofs):
+        if not np.array_equal(excluded[dofs(v)], excluded[dofs(perm)]):
+            return np.zeros(0, dtype=int)
+    return np.flatnonzero(perm == v)
+
+
+def _choose_gauge(space: ShellSpace, R: np.ndarray, excluded: np.ndarray, vertices: np.ndarray) -> np.ndarray:
+    """``gauge_dofs``' choice among the u, v dofs of ``vertices``: R (ndofs, k) the free motions, in order."""
+    cand = np.concatenate([space.u_dofs(vertices), space.v_dofs(vertices)])
+    cand = np.sort(cand[~excluded[cand]])
+    R = R[cand]  # (candidates, k)
+    scale = float(np.abs(R).max()) if R.size else 0.0
+    if scale == 0.0:
+        raise InputError("supports", "no tangential dof can carry the gauge of the free rigid motions")
     chosen: list[int] = []
     for j in range(R.shape[1]):
         size = np.abs(R[:, j])
