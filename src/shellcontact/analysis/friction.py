@@ -203,8 +203,14 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
     tresca_g = top.tresca_bounds(op.weights, np.array([s.bound if s.model == "tresca" else 0.0 for s in specs]))
     scale = np.linalg.norm(op.grad, axis=0)
 
+    given = np.array([s.model == "tresca" and s.surface == "frictionless-contact" for s in specs], bool)
+    surface: list[np.ndarray] = []  # the given surface of those rows: the frictionless solution's contact set
+
     def bounds(Lam: np.ndarray) -> np.ndarray:
-        return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
+        if not surface:  # the first call is on the frictionless solution (``solve_coulomb``'s g⁰)
+            surface.append(Lam > 0)
+        on = np.where(given, surface[0], Lam > 0)
+        return mu * scale * np.maximum(Lam, 0.0) + np.where(on, tresca_g, 0.0)
 
     E = _slip_columns(d, qp, top)
     held = not np.all(normal_part(qp)[1])  # rigid motions only friction holds (``_frictionless_start``)
@@ -232,8 +238,8 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
                 options["factorization"], options["screen"] = joint, rows
 
         law = np.stack([mu * scale, tresca_g], axis=1)
-        if np.any(mu > 0) and E is None:  # the whole law by Newton (Coulomb without δ; the case's Tresca
-            # keeps the fixed point: its bound jumps with the closed set, docs/theory.md §9a)
+        if np.any(mu > 0) and E is None and not given.any():  # the whole law by Newton (Coulomb without δ; the
+            # case's Tresca keeps the fixed point: its bound jumps with the closed set, docs/theory.md §9a)
             if start is None:
                 start = _frictionless(solve_active_set(qp, tol=opts.tolerance, factorization=setup.factorization))
             sol, fallback = _newton(qp, C, c, law, options, _warm_start(start), NEWTON_ITERATIONS)
