@@ -139,6 +139,25 @@ def test_newton_converges_where_its_sets_cycled():
     assert rel(newton.info["T"], fixed.info["T"]) < 5e-10  # measured 8.1e-11
 
 
+def test_coulomb_on_the_screened_rows_equals_the_whole_qp():
+    """The pipeline's screened path (the dense Schur complement of the rows predicted to touch, which runs by
+    default from 40k unknowns; forced here by ``solver.substructure = true`` on the 8 × 8 panel) solves Coulomb
+    as the whole QP does. On integ at 5d18262 it failed with a TypeError (``tresca_screened`` passed ``E=`` to the
+    whole-law Newton), so every Coulomb run of 40k unknowns and more failed; checked against the run without
+    screening (friction force and normal force, measured 1e-12 relative)."""
+    slide = (1e-3, 0.0, 0.0)
+    runs = []
+    for sub in (True, False):
+        d = panel_dict(friction=0.3, slide=slide)
+        d.setdefault("solver", {})["substructure"] = sub
+        runs.append(solve(case_from_dict(d), method="active-set").summary()["contact"][0])
+    a, b = runs
+    scale = np.linalg.norm(b["friction"]["force"])
+    assert scale > 0 and a["friction"]["method"] == "coulomb-active-set"
+    assert np.linalg.norm(np.subtract(a["friction"]["force"], b["friction"]["force"])) < 1e-8 * scale
+    assert a["total_normal_force"] == pytest.approx(b["total_normal_force"], rel=1e-9)
+
+
 @pytest.mark.slow
 def test_newton_alone_at_68k_unknowns(monkeypatch):
     """examples/panel_pushed_sideways.toml at refine 2 (68k unknowns), μ = 0.3, 1 mm slide, through the pipeline:
