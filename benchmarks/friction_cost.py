@@ -2,12 +2,14 @@
 
 examples/panel_pushed_sideways.toml at ``mesh.refine`` r (r = 1: 16.8k unknowns), three variants of its punch:
 frictionless (friction 0, no slide), Tresca (``--tresca-bound``, default 1e7 Pa, on the points in contact, 1 mm
-axial slide) and Coulomb
+axial slide; ``--tresca-fixed g`` instead: the bound g on the points in contact of the frictionless solution, held
+fixed — the case key ``friction.surface = "frictionless-contact"``, one convex Tresca problem) and Coulomb
 (μ = 0.3, the same slide); each by ``--methods`` (default active-set and dual). Every run is a fresh
 subprocess (its peak RSS its own); reported: the whole ``shellcontact.solve`` (wall, CPU s), its solve stage,
 the fixed-point iterations and the solver's iterations, the peak RSS.
 
     .venv/bin/python benchmarks/friction_cost.py --refine 1 2 [--methods active-set dual] [--tresca-bound 1e6]
+    .venv/bin/python benchmarks/friction_cost.py --refine 1 2 --methods active-set --tresca-fixed 1e6
     flock /work/wt/big.lock .venv/bin/python benchmarks/friction_cost.py --refine 112 --methods active-set
 
 (``--refine 112``: the mesh nx = nphi = 112, 216k unknowns, the issue's size; refine 3 is 276k.)
@@ -36,7 +38,7 @@ VARIANTS = {
 }
 
 
-def one(refine: int, variant: str, method: str, tresca_bound: float) -> dict:
+def one(refine: int, variant: str, method: str, tresca_bound: float, fixed: bool) -> dict:
     """One run, in this process: the numbers of the table's row."""
     from shellcontact import solve
     from shellcontact.problem.case import case_from_dict
@@ -51,6 +53,8 @@ def one(refine: int, variant: str, method: str, tresca_bound: float) -> dict:
     punch.update(VARIANTS[variant])
     if variant == "tresca":
         punch["friction"] = {"model": "tresca", "bound": tresca_bound}
+        if fixed:
+            punch["friction"]["surface"] = "frictionless-contact"
     case = case_from_dict(data)
     wall, cpu = time.perf_counter(), time.process_time()
     result = solve(case, method=method)
@@ -84,11 +88,15 @@ def main() -> None:
                     help="refine levels 0-3 of the example's 16 x 16 mesh, or above 3 the mesh nx = nphi = that number")
     ap.add_argument("--methods", nargs="+", default=["active-set", "dual"])
     ap.add_argument("--tresca-bound", type=float, default=1e7, help="the Tresca variant's bound (Pa)")
+    ap.add_argument("--tresca-fixed", type=float, default=None, metavar="G",
+                    help="the Tresca variant: the bound G (Pa) on the frictionless solution's contact set, held fixed")
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
     ap.add_argument("--one", nargs=3, metavar=("REFINE", "VARIANT", "METHOD"), help=argparse.SUPPRESS)
     args = ap.parse_args()
+    fixed = args.tresca_fixed is not None
+    bound = args.tresca_fixed if fixed else args.tresca_bound
     if args.one:
-        print(json.dumps(one(int(args.one[0]), args.one[1], args.one[2], args.tresca_bound)))
+        print(json.dumps(one(int(args.one[0]), args.one[1], args.one[2], bound, fixed)))
         return
     print(machine_line(machine()))
     print("| refine | unknowns | rows | variant | method | wall s | CPU s | solve stage s | fixed-point its | "
@@ -98,7 +106,7 @@ def main() -> None:
         for method in args.methods:
             for variant in args.variants:
                 out = subprocess.run([sys.executable, __file__, "--one", str(refine), variant, method,
-                                      "--tresca-bound", str(args.tresca_bound)],
+                                      "--tresca-fixed" if fixed else "--tresca-bound", str(bound)],
                                      capture_output=True, text=True, env=single_thread_env())
                 if out.returncode:
                     print(f"| {refine} | | | {variant} | {method} | failed: {out.stderr.strip()[-200:]} |")

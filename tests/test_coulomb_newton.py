@@ -156,3 +156,27 @@ def test_coulomb_on_the_screened_rows_equals_the_whole_qp():
     assert scale > 0 and a["friction"]["method"] == "coulomb-active-set"
     assert np.linalg.norm(np.subtract(a["friction"]["force"], b["friction"]["force"])) < 1e-8 * scale
     assert a["total_normal_force"] == pytest.approx(b["total_normal_force"], rel=1e-9)
+
+
+@pytest.mark.slow
+def test_newton_alone_at_68k_unknowns(monkeypatch):
+    """examples/panel_pushed_sideways.toml at refine 2 (68k unknowns), μ = 0.3, 1 mm slide, through the pipeline:
+    with the join limit growing with the closed set while the residual falls (``JOIN_SHARE``) the whole-law Newton
+    converges alone (measured: 20 iterations on the border rows, then 10 after outside rows joined); with 4 rows
+    per iteration it needed 29 and stopped at its cap, and the fixed point of Tresca problems and a polish
+    finished. Its friction and normal forces are those of that route (the Newton held to 1 iteration)."""
+    import shellcontact.analysis.friction as friction
+
+    data = tomllib.loads(CASE.read_text())
+    data["mesh"]["refine"] = 2
+    data["punch"][0].update(friction=0.3, slide=[1e-3, 0.0, 0.0])
+    alone = solve(case_from_dict(data), method="active-set").summary()["contact"][0]
+    fp = alone["friction"]["fixed_point"]
+    assert fp["newton"]["converged"] and fp["iterations"] == 0  # no fixed point ran
+    monkeypatch.setattr(friction, "NEWTON_ITERATIONS", 1)
+    fixed = solve(case_from_dict(data), method="active-set").summary()["contact"][0]
+    assert fixed["friction"]["fixed_point"]["iterations"] > 0 and fixed["friction"]["fixed_point"]["converged"]
+    scale = np.linalg.norm(fixed["friction"]["force"])
+    difference = np.linalg.norm(np.subtract(alone["friction"]["force"], fixed["friction"]["force"]))
+    assert difference < 1e-13 * scale  # measured 1.4e-14
+    assert alone["total_normal_force"] == pytest.approx(fixed["total_normal_force"], rel=1e-13)  # measured 0

@@ -109,3 +109,26 @@ def test_friction_keys_in_the_schema():
     with pytest.raises(InputError) as e:
         load_case(PANEL, ["punch.0.friction.bound=-1"])
     assert str(e.value).startswith("punch.0.friction.bound:")
+
+
+def test_tresca_on_the_frictionless_contact_set():
+    """``surface = "frictionless-contact"``: the bound on the rows in contact in the frictionless solution, held
+    fixed — one convex Tresca problem. Where the case's Tresca on the contact set has no solution (1e8 Pa, 0.1 mm
+    slide: above) it is solved in one iteration, no warning, and equals that problem solved directly by the dual
+    (bounds ω g on the frictionless dual solution's contact set)."""
+    _, qp, op, top, C, c, fac = panel()
+    c = 0.1 * c
+    surface = solve_tresca_dual(qp, C, c, np.zeros(qp.m), factorization=fac).Lambda > 0
+    direct = solve_tresca_dual(qp, C, c, np.where(surface, top.tresca_bounds(op.weights, 1e8), 0.0), factorization=fac)
+    friction = {"model": "tresca", "bound": 1e8, "surface": "frictionless-contact"}
+    for method in ("active-set", "dual"):
+        result = solve(case_from_dict(panel_dict(friction=friction, slide=(1e-4, 0.0, 0.0))), method=method)
+        s = result.summary()
+        assert "friction_no_solution" not in [w["code"] for w in s["warnings"]]
+        fp = s["contact"][0]["friction"]["fixed_point"]
+        assert fp["converged"] and fp["iterations"] == 1
+        assert rel(result.contact.Lambda, direct.Lambda) < 4e-12, method  # measured 7.5e-13, 4.4e-13
+        assert rel(result.contact.solution.U, direct.U) < 1e-12, method  # measured 1.5e-13, 1.3e-13
+    with pytest.raises(InputError) as e:
+        case_from_dict(panel_dict(friction={"coefficient": 0.3, "surface": "frictionless-contact"}))
+    assert str(e.value).startswith("punch.0.friction.surface:")

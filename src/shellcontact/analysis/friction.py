@@ -55,8 +55,9 @@ POLISH_ITERATIONS = 6
 #: the whole-law Newton's iterations before the fixed point takes over: where it converges it takes 4–5 (8 × 8
 #: panel, μ ≤ 3), 10–12 (32 × 32, μ ≤ 1); where it does not, its sets wander (19 iterations before it stalled at
 #: 68k unknowns, μ = 0.3, each adding pairs to solve for: 22 of 48 s of the run, the fixed point that then
-#: converged 11 s)
-NEWTON_ITERATIONS = 12
+#: converged 11 s); with the join limit growing with the closed set (``coulomb_newton.JOIN_SHARE``) it converges
+#: at 68k in 20 iterations on the border rows and 10 after outside rows joined (each call counts its own)
+NEWTON_ITERATIONS = 25
 
 
 def has_friction(case: Case) -> bool:
@@ -203,8 +204,14 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
     tresca_g = top.tresca_bounds(op.weights, np.array([s.bound if s.model == "tresca" else 0.0 for s in specs]))
     scale = np.linalg.norm(op.grad, axis=0)
 
+    given = np.array([s.model == "tresca" and s.surface == "frictionless-contact" for s in specs], bool)
+    surface: list[np.ndarray] = []  # the given surface of those rows: the frictionless solution's contact set
+
     def bounds(Lam: np.ndarray) -> np.ndarray:
-        return mu * scale * np.maximum(Lam, 0.0) + np.where(Lam > 0, tresca_g, 0.0)
+        if not surface:  # the first call is on the frictionless solution (``solve_coulomb``'s g⁰)
+            surface.append(Lam > 0)
+        on = np.where(given, surface[0], Lam > 0)
+        return mu * scale * np.maximum(Lam, 0.0) + np.where(on, tresca_g, 0.0)
 
     E = _slip_columns(d, qp, top)
     held = not np.all(normal_part(qp)[1])  # rigid motions only friction holds (``_frictionless_start``)
@@ -232,8 +239,8 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
                 options["factorization"], options["screen"] = joint, rows
 
         law = np.stack([mu * scale, tresca_g], axis=1)
-        if np.any(mu > 0) and E is None:  # the whole law by Newton (Coulomb without δ; the case's Tresca
-            # keeps the fixed point: its bound jumps with the closed set, docs/theory.md §9a)
+        if np.any(mu > 0) and E is None and not given.any():  # the whole law by Newton (Coulomb without δ; the
+            # case's Tresca keeps the fixed point: its bound jumps with the closed set, docs/theory.md §9a)
             if start is None:
                 start = _frictionless(solve_active_set(qp, tol=opts.tolerance, factorization=setup.factorization))
             sol, fallback = _newton(qp, C, c, law, options, _warm_start(start), NEWTON_ITERATIONS)

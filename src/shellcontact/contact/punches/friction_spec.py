@@ -3,6 +3,9 @@
 ``friction`` is either Coulomb's coefficient μ ≥ 0 (a number; 0, the default, is frictionless and gives
 today's results bit for bit) or a table ``{ model = "tresca", bound = g }`` with the slip bound g ≥ 0 (Pa); a
 table with a ``bound`` and no ``model`` is Tresca (so that ``--set punch.0.friction.bound=1e7`` is enough).
+Tresca's ``surface``: "contact" (default) puts g on the points in contact of the solution itself (a fixed point
+on the contact set, which may have no solution); "frictionless-contact" on the points in contact of the
+frictionless solution, held fixed (the classical Tresca problem on a given surface: one convex problem).
 ``slide = [dx, dy, dz]`` (m, global frame) is a prescribed rigid translation of the punch tangent to its
 surface; its component along the punch's direction of travel is refused (that is the indentation's job).
 """
@@ -18,6 +21,7 @@ from ...errors import InputError
 from ...inputs.schema import Key, Table
 
 MODELS = ("coulomb", "tresca")
+SURFACES = ("contact", "frictionless-contact")
 #: the largest Coulomb coefficient accepted: beyond it no material pair is meant and the fixed point of the
 #: static problem (whose uniqueness needs μ small) is not expected to contract
 MU_MAX = 10.0
@@ -29,6 +33,9 @@ FRICTION = Table("friction", (
         default_doc="–"),
     Key("bound", "number", "Tresca's slip bound g: the tangential traction where the face slides",
         unit="force/length²", lo=0.0, default=None, default_doc="–"),
+    Key("surface", "choice", "where Tresca's bound acts: the points in contact of the solution (a fixed point on "
+        "the contact set) or those of the frictionless solution, held fixed (one convex Tresca problem)",
+        choices=SURFACES, default="contact"),
 ))
 
 #: the keys ``spec.PUNCH`` declares (parsed here, before the rest of the punch table)
@@ -47,11 +54,13 @@ FRICTION_KEYS = (
 
 @dataclass(frozen=True)
 class FrictionSpec:
-    """A punch's friction law: ``model`` "coulomb" with ``coefficient`` μ, or "tresca" with ``bound`` g (Pa)."""
+    """A punch's friction law: ``model`` "coulomb" with ``coefficient`` μ, or "tresca" with ``bound`` g (Pa) on
+    ``surface`` (module docstring)."""
 
     model: str = "coulomb"
     coefficient: float = 0.0
     bound: float = 0.0
+    surface: str = "contact"
 
     @property
     def active(self) -> bool:
@@ -67,7 +76,10 @@ def parse_friction(raw: Any, where: str) -> FrictionSpec:
         if v["model"] == "tresca":
             if v["bound"] is None or v["coefficient"] is not None:
                 raise InputError(f"{where}.bound", "the Tresca model needs `bound` (Pa, ≥ 0) and no `coefficient`")
-            return FrictionSpec("tresca", 0.0, float(v["bound"]))
+            return FrictionSpec("tresca", 0.0, float(v["bound"]), v["surface"])
+        if "surface" in raw:
+            raise InputError(f"{where}.surface", "only the Tresca model has a `surface` (Coulomb's bound is μ × "
+                                                 "the normal force wherever it acts)")
         if v["coefficient"] is None or v["bound"] is not None:
             raise InputError(f"{where}.coefficient",
                              f"the Coulomb model needs `coefficient` (0 ≤ μ ≤ {MU_MAX:g}) and no `bound`")
