@@ -251,13 +251,12 @@ def test_vessel_under_self_weight_is_held_by_friction(method):
 
 
 def test_vessel_under_self_weight_methods_agree():
-    """Dual and penalty against the Newton on the self-weight vessel: friction forces to 1e-8 (measured ...) and to
-    the penalty's O(ε) (measured ...), normal forces likewise."""
+    """Dual and penalty against the Newton on the self-weight vessel: the dual's friction forces to 2e-10 (measured
+    3.8e-11 and 2.7e-11), its normal forces likewise (1.1e-11); the penalty's to its O(ε), 3e-5 (measured 5.1e-6 and
+    9.5e-7, normal forces 4.3e-6)."""
     a = dead_weight("active-set").summary()["contact"]
-    for method, tol in (("dual", 1e-8), ("penalty", 1e-4)):
+    for method, tol in (("dual", 2e-10), ("penalty", 3e-5)):
         other = dead_weight(method).summary()["contact"]
         for k in range(2):
-            print(method, k, rel(other[k]["friction"]["force"], a[k]["friction"]["force"]),
-                  abs(other[k]["total_normal_force"] / a[k]["total_normal_force"] - 1))
             assert rel(other[k]["friction"]["force"], a[k]["friction"]["force"]) <= tol
             assert other[k]["total_normal_force"] == pytest.approx(a[k]["total_normal_force"], rel=tol)
