@@ -242,6 +242,7 @@ def test_vessel_under_self_weight_is_held_by_friction(method):
     assert s["rigid_motion"]["held_by_friction"] == ["translation along x", "rotation about x"]
     fixed, sliding = (c["friction"] for c in s["contact"])
     assert fixed["fixed_point"]["converged"] and not fixed["fixed_point"]["cycle"]
+    assert sliding["force"][0] < 0 < fixed["force"][0]  # inward on the vessel at both saddles (x = ±3.5 m)
     axial = abs(sliding["force"][0])
     assert axial > 1e3  # N: the friction really carries the sag's pull (6.6 kN measured)
     exact = method != "penalty"  # measured: cancel 1.4e-16 (Newton), 1.4e-12 (dual), 7.9e-7 (penalty); balance
