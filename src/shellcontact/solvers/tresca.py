@@ -38,6 +38,11 @@ _BLOCK = 256  # right-hand sides per blocked solve when forming Ŝ
 #: penalty springs raise cond(K); measured 2.5e-9 on the paper panel at ε/10, 1.9e-6 with stick springs ω/ε on
 #: the points in contact at the default ε, Tresca 1e7 Pa): below the penalty's O(ε) error
 _FLOOR = 1e-5
+#: a sliding point whose slip shrank below this fraction of the last iteration's is tried on its stick branch: Newton's
+#: model of a sliding point has no stiffness along its slip, so a point that sticks in the solution is approached
+#: from outside geometrically (the vessel on saddles under self-weight, 20 × 24: k|σ|/g 20 → 3 in 85 steps, 6 % a
+#: step, the residual stuck at 0.064 after 100 steps; with the trial below 1e-8 in 15 steps)
+SHRINK = 0.97
 
 
 def _check(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.ndarray, E: np.ndarray | None = None
@@ -269,7 +274,8 @@ def solve_tresca_penalty(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.nda
                          backend: str = "auto", E: np.ndarray | None = None) -> ContactSolution:
     """Tresca friction by penalty: normal springs ω_i/ε, tangential springs ω_i/ε capped at g_i (module
     docstring). Newton with backtracking (a step on the slip's majorant (g/|σ|)·I where Newton needs
-    a step below ¼: its tangent has no stiffness along the slip); stops when the penalised equation's residual is below
+    a step below ¼: its tangent has no stiffness along the slip; sliding points whose slip keeps shrinking are
+    tried on their stick branch first, ``SHRINK``); stops when the penalised equation's residual is below
     tol × ‖F + BᵀΛ + CᵀT‖ or below ``_FLOOR`` once the energy stops decreasing (round-off). With δ unknowns
     (qp.k > 0) the unknowns are x = (U, δ): A, F, B, C bordered by (0, P, D, E), and Newton starts from the
     frictionless penalty solution's penetrating rows (a punch that starts apart has none at G)."""
@@ -313,13 +319,30 @@ def solve_tresca_penalty(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, g: np.nda
         U = factorize(K, backend).solve(F - Bn.T @ (kn[closed] * qp.G[closed]) + Ct.T @ (np.repeat(kn, 2) * c))
     history: list = []
     En, Lam, T, Hs, gap = state(U)
+    previous = np.zeros(qp.m)
     last = np.inf  # the last iteration's residual: the round-off floor is where it stops falling
     for it in range(1, max_iterations + 1):
         grad = A @ U - F - B.T @ Lam - Ct.T @ T
         Bn = B[gap < 0]
         Kn = A + Bn.T @ sp.diags(kn[gap < 0]) @ Bn
         slope = 0.0
-        for blocks, shortest in zip(Hs, (0.25, 1e-10)):  # Newton; if it needs a short step, the majorant
+        sig = (Ct @ U - c).reshape(-1, 2)
+        r = np.linalg.norm(sig, axis=1)
+        creeping = (g > 0) & (kn * r > g) & (r < SHRINK * previous)
+        previous = r
+        trial = None
+        if creeping.any():  # the step with those points on their stick branch (force −kσ, stiffness k), kept
+            # where it lowers the energy (else Newton's step below)
+            blocks = np.where(creeping[:, None, None], kn[:, None, None] * np.eye(2)[None], Hs[0])
+            Tm = T.reshape(-1, 2).copy()
+            Tm[creeping] = -kn[creeping, None] * sig[creeping]
+            K = Kn + Ct.T @ sp.block_diag(list(blocks), format="csr") @ Ct
+            dU = -factorize(K, backend).solve(grad - Ct.T @ (Tm.ravel() - T))
+            t, trial = 1.0, state(U + dU)
+            if not trial[0] < En:
+                trial = None
+        for blocks, shortest in zip(Hs if trial is None else (), (0.25, 1e-10)):  # Newton; if it needs a short
+            # step, the majorant
             K = Kn + Ct.T @ sp.block_diag(list(blocks), format="csr") @ Ct
             dU = -factorize(K, backend).solve(grad)
             slope = float(grad @ dU)
