@@ -75,6 +75,7 @@ SUMMARY_KINDS: tuple[tuple[str, str | None], ...] = (
     ("equilibrium.*.force", "force"), ("equilibrium.*.moment", "moment"),
     ("contact.rim.samples.phi", "angle"), ("contact.rim.samples.x", "length"), ("contact.rim.length", "length"),
     ("contact.rim.interior_area", "area"), ("contact.rim.per_line.length", "length"),
+    ("contact.rim.line_loads.length", "length"),
     ("contact.rim.mean_interior_pressure", "pressure"), ("contact.rim.*interior_pressure", "pressure"),
     ("contact.rim.carrying_area", "area"), ("contact.rim.interior_resolved", None),
     ("contact.rim.point_forces.phi", "angle"),
