@@ -243,12 +243,7 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
             # case's Tresca keeps the fixed point: its bound jumps with the closed set, docs/theory.md §9a)
             if start is None:
                 start = _frictionless(solve_active_set(qp, tol=opts.tolerance, factorization=setup.factorization))
-            # from the Tresca solve of the frictionless contact's bounds (the fixed point's first iterate), not from
-            # the frictionless solution: at 211k unknowns the closed set then stays at 392–650 rows (the fixed
-            # point's ≈ 570), where from the frictionless start it fell from 497 to ≈ 260 and stalled there; at 68k
-            # 15 iterations instead of 20 + 10 (benchmarks/RESULTS.md, "Branch leave14")
-            first = tresca(qp, C, c, bounds(start.Lambda), initial=_warm_start(start), **options)
-            sol, fallback = _newton(qp, C, c, law, options, _warm_start(first), NEWTON_ITERATIONS)
+            sol, fallback = _newton(qp, C, c, law, options, _warm_start(start), NEWTON_ITERATIONS)
             newton = {"iterations": int(sol.iterations), "converged": fallback is None, "fallback": fallback,
                       "polish_iterations": []}
             if fallback is None:
