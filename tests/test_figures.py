@@ -146,3 +146,31 @@ def test_pressure_title_gives_the_peak_the_report_gives(panel) -> None:
     title = fig.axes[0].get_title()
     shown = float(title.split("peak nodal pressure ")[1].split()[0])
     assert shown == pytest.approx(peak, rel=5e-4), (title, peak)  # 4 digits shown
+
+
+def test_a_straight_line_load_is_coloured_along_its_length() -> None:
+    """A saddle horn's line load is a straight polyline of two points with three samples along it (26 013,
+    23 364, 30 706 N/m at refine 0 of examples/vessel_saddles.toml). pressure.png drew it as one segment in the
+    colour of the middle sample, so the colour bar stopped at 23 364 N/m, below the line's own mean 26 694 N/m;
+    now the line's colours span its samples (the independent reference: the samples themselves)."""
+    from types import SimpleNamespace
+
+    from matplotlib.collections import LineCollection
+    from matplotlib.figure import Figure
+
+    from shellcontact.outputs.figures.contact import _draw_line_force
+
+    a = 2.0
+    phi = 210.0
+    samples = [{"x": x, "phi": phi, "line_force": q, "line": 0}
+               for x, q in ((-3.6, 26013.0), (-3.5, 23364.0), (-3.4, 30706.0))]
+    rim = {"samples": samples, "per_line": [{"kind": "line", "length": 0.3, "closed": False}]}
+    line = np.array([[-3.65, a * np.radians(phi)], [-3.35, a * np.radians(phi)]])
+    result = SimpleNamespace(solution=SimpleNamespace(shell=SimpleNamespace(radius=a, full=False)),
+                             case=SimpleNamespace(units="SI"))
+    fig = Figure()
+    ax = fig.add_subplot()
+    assert _draw_line_force(ax, fig, result, rim, [line])
+    (lc,) = [c for c in ax.collections if isinstance(c, LineCollection)]
+    colours = np.asarray(lc.get_array())
+    assert colours.min() == 23364.0 and colours.max() == 30706.0 and lc.get_clim()[1] == 30706.0

@@ -104,6 +104,7 @@ def _draw_line_force(ax, fig, result, rim: dict | None, lines: list[np.ndarray])
         sx = np.array([s["x"] for s in own])
         ss = np.radians([s["phi"] for s in own]) * a
         q = np.array([s["line_force"] for s in own])
+        ln = _densified(ln, 4 * len(own))  # a straight line load is 2 points: one segment, one colour otherwise
         pts = np.stack([ln[:, 0], np.degrees(ln[:, 1] / a)], axis=1)
         mid = 0.5 * (ln[1:] + ln[:-1])
         ds = np.abs(mid[:, 1, None] - ss[None])
@@ -120,6 +121,17 @@ def _draw_line_force(ax, fig, result, rim: dict | None, lines: list[np.ndarray])
     ax.plot([], [], "-", color=lc.cmap(0.6), lw=3.5, label="contact boundary")  # as on the other maps
     ax.legend(loc="upper right", fontsize=8)
     return True
+
+
+def _densified(line: np.ndarray, n: int) -> np.ndarray:
+    """The polyline (k, 2) with points added along its segments so that it has at least ``n`` segments of about
+    equal length (its own points kept)."""
+    step = np.linalg.norm(np.diff(line, axis=0), axis=1)
+    if len(line) - 1 >= n or not step.sum() > 0.0:
+        return line
+    parts = [np.linspace(line[i], line[i + 1], max(1, math.ceil(n * d / step.sum())) + 1)[:-1]
+             for i, d in enumerate(step)]
+    return np.vstack([*parts, line[-1:]])
 
 
 def _draw_point_forces(ax, result, rim: dict | None) -> None:
