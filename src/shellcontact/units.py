@@ -80,6 +80,7 @@ SUMMARY_KINDS: tuple[tuple[str, str | None], ...] = (
     ("contact.rim.carrying_area", "area"), ("contact.rim.interior_resolved", None),
     ("contact.rim.point_forces.phi", "angle"),
     ("contact.rim.point_forces.x", "length"), ("contact.rim.point_forces.position", "length"),
+    ("contact.rim.per_line.end_forces.phi", "angle"), ("contact.rim.per_line.end_forces.x", "length"),
     ("contact.rim.*line_force", "force/length"), ("contact.rim.*force", "force"),
     ("contact.zone.area", "area"), ("contact.zone.phi", "angle"), ("contact.zone.*", "length"),
     ("contact.area", "area"), ("contact.peak_pressure", "pressure"), ("contact.moment", "moment"),

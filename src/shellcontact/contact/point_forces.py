@@ -9,7 +9,10 @@ reported as what it is, a force (N) at a position, and left out of the line/inte
 (``shellcontact.contact.rim``).
 
 A cluster: the carrying points (Λᵢ > 0) joined when closer than ``JOIN`` element widths (the constraint points
-of one element, vertices and edge midpoints, are within one width of each other). A cluster is a point force when
+of one element, vertices and edge midpoints, are within one width of each other) and inside the same outline (a
+carrying point in a loop of its own at a saddle's corner, next to its horn's strip, is not part of the horn's
+cluster: ``contact.line_ends`` attaches such a point force to the line load whose end it is). A cluster is a point
+force when
 
 - it lies within the elements round one vertex (the one nearest its force-weighted centroid): its extent is the
   mesh's, not the contact's (a discrete point force is a vertex's row and those of its neighbours); and
@@ -41,7 +44,7 @@ def point_force_clusters(pts: np.ndarray, force: np.ndarray, width: np.ndarray, 
     s_min, s_max) (s_min = s_max: a full cylinder)."""
     if len(pts) == 0:
         return []
-    labels = _clusters(pts, width)
+    labels = _clusters(pts, width, _owner(pts, outlines))
     groups = [np.flatnonzero(labels == c) for c in range(int(labels.max()) + 1)]
     small = []
     for k, g in enumerate(groups):
@@ -96,8 +99,9 @@ def _spans(pts: np.ndarray, box: tuple[float, float, float, float]) -> bool:
     return bool(across_x or across_s)
 
 
-def _clusters(pts: np.ndarray, width: np.ndarray) -> np.ndarray:
-    """Connected-component labels of the points joined when closer than JOIN × the larger of their widths."""
+def _clusters(pts: np.ndarray, width: np.ndarray, owner: np.ndarray) -> np.ndarray:
+    """Connected-component labels of the points joined when closer than JOIN × the larger of their widths and in
+    the same outline (``owner``: ``_owner``'s index, −1 in none)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -107,6 +111,7 @@ def _clusters(pts: np.ndarray, width: np.ndarray) -> np.ndarray:
     if len(pairs):
         p, q = pairs[:, 0], pairs[:, 1]
         near = np.linalg.norm(pts[p] - pts[q], axis=1) <= JOIN * np.maximum(width[p], width[q])
+        near &= owner[p] == owner[q]
         p, q = p[near], q[near]
     else:
         p = q = np.zeros(0, int)

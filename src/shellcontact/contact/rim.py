@@ -52,6 +52,7 @@ import numpy as np
 from ..shell.spaces import ShellSpace
 from .fixed_outline import class_field, fixed_punch_points, in_zone_facing_body
 from .interior import RESOLVED, interior_split
+from .line_ends import attach_end_forces
 from .operator import GAP_QUANTITIES, ContactOperator, facing_body, linearised_gap, zone_tolerance
 from .outline_geometry import (
     closes_on_itself,
@@ -121,7 +122,8 @@ def rim_line_force(space: ShellSpace, punches: Sequence[Punch], operator: Contac
         entry, rim = _distribute(space, lines, operator.x[rows], operator.phi[rows], force, operator.weights[rows],
                                  zone["area"], body, touching)
         polylines[-1] = rim
-        out.append({**entry, "point_force": sum(q["force"] for q in points), "point_forces": points})
+        out.append({**entry, "point_forces": points})
+        attach_end_forces(space, out[-1], rim)  # a point force at a line load's end is the line's (a corner force)
     return out, polylines
 
 
@@ -153,7 +155,8 @@ def _only_points(points: list[dict], rest: np.ndarray, zone_area: float) -> dict
     interior = float(rest.sum())
     return {"kind": "point" if points else "unresolved", "interior_resolved": interior <= 0.0,
             "length": 0.0, "force": 0.0, "interior_force": interior, "peak_line_force": 0.0,
-            "line_loads": {"force": 0.0, "length": 0.0, "mean_line_force": 0.0, "peak_line_force": 0.0},
+            "line_loads": {"force": 0.0, "length": 0.0, "mean_line_force": 0.0, "peak_line_force": 0.0,
+                           "end_force": 0.0},
             "mean_line_force": 0.0, "lines": 0, "interior_area": zone_area,
             "mean_interior_pressure": interior / zone_area if zone_area > 0 else 0.0, "per_line": [],
             "samples": [], "point_force": sum(q["force"] for q in points), "point_forces": points}

@@ -119,7 +119,7 @@ def _draw_line_force(ax, fig, result, rim: dict | None, lines: list[np.ndarray])
     ax.add_collection(lc)
     fig.colorbar(lc, ax=ax, label=f"line force{_unit(result, 'force/length')}", ticks=MaxNLocator(6), pad=0.02)
     ax.plot([], [], "-", color=lc.cmap(0.6), lw=3.5, label="contact boundary")  # as on the other maps
-    ax.legend(loc="upper right", fontsize=8)
+    _legend(ax)
     return True
 
 
@@ -135,15 +135,25 @@ def _densified(line: np.ndarray, n: int) -> np.ndarray:
 
 
 def _draw_point_forces(ax, result, rim: dict | None) -> None:
-    """Each point force (``rim.point_forces``) as a marker labelled with its force."""
+    """Each point force (``rim.point_forces``) as a marker labelled with its force, and each line load's end
+    forces (``per_line.end_forces``: a corner force of a saddle's horn) as a marker at the line's end."""
     points = (rim or {}).get("point_forces") or []
-    for j, pf in enumerate(points):
-        ax.plot(pf["x"], pf["phi"], "r*", ms=13, mec="k", mew=0.6, label="point force" if j == 0 else None)
-        ax.annotate(_q(result, pf["force"], "force"), (pf["x"], pf["phi"]), xytext=(8, 8),
-                    textcoords="offset points", fontsize=8, color="darkred",
-                    bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "darkred", "alpha": 0.85})
-    if points:
-        ax.legend(loc="upper right", fontsize=8)
+    ends = [q for line in (rim or {}).get("per_line") or [] for q in line.get("end_forces") or []]
+    for marks, style, colour, name in ((points, "r*", "darkred", "point force"),
+                                       (ends, "D", "darkorange", "line load's end force")):
+        for j, pf in enumerate(marks):
+            ax.plot(pf["x"], pf["phi"], style, color=colour, ms=13 if style == "r*" else 8, mec="k", mew=0.6,
+                    label=name if j == 0 else None)
+            ax.annotate(_q(result, pf["force"], "force"), (pf["x"], pf["phi"]), xytext=(8, 8),
+                        textcoords="offset points", fontsize=8, color=colour,
+                        bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": colour, "alpha": 0.85})
+    if points or ends:
+        _legend(ax)
+
+
+def _legend(ax) -> None:
+    """The legend below the axes, where it covers nothing (over the map it hid a saddle's horn)."""
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3, fontsize=8, frameon=False)
 
 
 def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
@@ -179,7 +189,7 @@ def plot_pressure(result, path: str | Path | None = None) -> Figure | None:
             if not (rim and rim.get("kind") == "point"):  # a point force's vertices: its marker below
                 act = np.asarray(status) == 1
                 ax.plot(x[act], phi[act], "c.", ms=3, label="active vertices")
-            ax.legend(loc="upper right", fontsize=8)
+            _legend(ax)
         _draw_point_forces(ax, result, rim)
         xr, pr = _contact_box(own, x, phi, h, math.degrees(h / sol.shell.radius))
         ax.set_xlim(*xr)
