@@ -156,7 +156,8 @@ def print_summary(con: Console, s: dict) -> None:
             loads = rim.get("line_loads") if isinstance(rim, dict) else None
             if isinstance(loads, dict) and loads.get("force"):  # ... and the line loads, apart
                 value = q(loads["mean_line_force"], "force/length", path=f"contact.{i}.rim.line_loads.mean_line_force")
-                parts.append(f"line load {value} over {q(loads['length'], 'length', '.4g')}")
+                ends = f" (end forces {q(loads['end_force'], 'force')})" if loads.get("end_force") else ""
+                parts.append(f"line load {value} over {q(loads['length'], 'length', '.4g')}{ends}")
             if isinstance(rim, dict) and rim.get("kind") == "unresolved":  # carrying rows with no zone round them
                 parts.append(f"{q(rim['interior_force'], 'force')} at scattered points no zone resolves (refine)")
             for j, pf in enumerate(rim.get("point_forces", []) if isinstance(rim, dict) else []):

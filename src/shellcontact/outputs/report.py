@@ -285,7 +285,9 @@ def _headline(s: Mapping[str, Any]) -> str:
             if loads.get("force"):  # line contacts (a plate on a pipe, a saddle's horn): apart from the area rim
                 rows.append([f"{who}line load", loads["mean_line_force"], u("force/length"),
                              f"force / length of the contact lines ({with_unit(_g(loads['length']), 'length', system)}"
-                             f", carrying {loads['force'] / c['total_normal_force']:.0%} of the normal force)"])
+                             f", carrying {loads['force'] / c['total_normal_force']:.0%} of the normal force"
+                             + (f", {with_unit(_g(loads['end_force']), 'force', system)} of it as end forces at "
+                                "the lines' ends: corner forces" if loads.get("end_force") else "") + ")"])
             if rim.get("force"):
                 rows.append([f"{who}rim line force (mean)", rim["mean_line_force"], u("force/length"),
                              f"along {with_unit(_g(rim['length']), 'length', system)} of rim, carrying "
