@@ -9,10 +9,10 @@ reported as what it is, a force (N) at a position, and left out of the line/inte
 (``shellcontact.contact.rim``).
 
 A cluster: the carrying points (Λᵢ > 0) joined when closer than ``JOIN`` element widths (the constraint points
-of one element, vertices and edge midpoints, are within one width of each other) and inside the same outline (a
-carrying point in a loop of its own at a saddle's corner, next to its horn's strip, is not part of the horn's
-cluster: ``contact.line_ends`` attaches such a point force to the line load whose end it is). A cluster is a point
-force when
+of one element, vertices and edge midpoints, are within one width of each other), but never across the edge of a
+thin strip of outline round a line (``strips``: a carrying point in a loop of its own at a saddle's corner, next
+to its horn's strip, is not part of the horn's cluster; ``contact.line_ends`` attaches such a point force to the
+line load whose end it is). A cluster is a point force when
 
 - it lies within the elements round one vertex (the one nearest its force-weighted centroid): its extent is the
   mesh's, not the contact's (a discrete point force is a vertex's row and those of its neighbours); and
@@ -36,15 +36,16 @@ JOIN = 1.5  # carrying points closer than this many element widths are one clust
 
 
 def point_force_clusters(pts: np.ndarray, force: np.ndarray, width: np.ndarray, outlines: Sequence[np.ndarray],
-                         mesh_p: np.ndarray, mesh_t: np.ndarray, box: tuple[float, float, float, float]
-                         ) -> list[np.ndarray]:
+                         mesh_p: np.ndarray, mesh_t: np.ndarray, box: tuple[float, float, float, float],
+                         strips: Sequence[np.ndarray] = ()) -> list[np.ndarray]:
     """Indices into ``pts`` (n, 2 in x, s = aφ; all carrying, ``force`` > 0) of each cluster that is a point
     force (module docstring). ``width``: the element width at each point; ``outlines``: the zone's level lines
     (n, 2) in (x, s); ``mesh_p`` (2, nv), ``mesh_t`` (3, ne): the mesh; ``box``: the shell's (x_min, x_max,
-    s_min, s_max) (s_min = s_max: a full cylinder)."""
+    s_min, s_max) (s_min = s_max: a full cylinder); ``strips``: closed outlines that are thin strips round a line,
+    whose edges no cluster crosses."""
     if len(pts) == 0:
         return []
-    labels = _clusters(pts, width, _owner(pts, outlines))
+    labels = _clusters(pts, width, _owner(pts, strips))
     groups = [np.flatnonzero(labels == c) for c in range(int(labels.max()) + 1)]
     small = []
     for k, g in enumerate(groups):
@@ -101,7 +102,7 @@ def _spans(pts: np.ndarray, box: tuple[float, float, float, float]) -> bool:
 
 def _clusters(pts: np.ndarray, width: np.ndarray, owner: np.ndarray) -> np.ndarray:
     """Connected-component labels of the points joined when closer than JOIN × the larger of their widths and in
-    the same outline (``owner``: ``_owner``'s index, −1 in none)."""
+    the same strip or both in none (``owner``: ``_owner``'s index among the strips, −1 in none)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree

@@ -140,7 +140,8 @@ def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi
     # a cluster inside a thin strip of outline is on a line (a saddle's horn only two elements wide), not a point
     areas = [enclosed_area([ln]) for ln in lines]
     wide = [ln for ln, area in zip(lines, areas) if area is None or perimeter_of(ln) ** 2 < 32.0 * area]
-    clusters = point_force_clusters(pts, force[carrying], width, wide, space.mesh.p, space.mesh.t, box)
+    strips = [ln for ln, area in zip(lines, areas) if area is not None and perimeter_of(ln) ** 2 >= 32.0 * area]
+    clusters = point_force_clusters(pts, force[carrying], width, wide, space.mesh.p, space.mesh.t, box, strips)
     points = describe(space.mesh.shell, pts, force[carrying], clusters)
     for g in clusters:
         force[carrying[g]] = 0.0

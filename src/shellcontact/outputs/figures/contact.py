@@ -85,8 +85,9 @@ def _rim_headline(result, rim: dict | None) -> str:
         return ", ".join(f"point force {_q(result, pf['force'], 'force')}" for pf in points[:3])
     loads = rim.get("line_loads") or {}
     parts = [f"rim line force (mean) {_q(result, rim['mean_line_force'], 'force/length')}"] if rim.get("force") else []
-    if loads.get("force"):  # the line loads apart from the area rim (rim.py)
-        parts.append(f"line load {_q(result, loads['mean_line_force'], 'force/length')}")
+    if loads.get("force"):  # the line loads apart from the area rim (rim.py), their end forces included
+        ends = " with end forces" if loads.get("end_force") else ""
+        parts.append(f"line load {_q(result, loads['mean_line_force'], 'force/length')}{ends}")
     return ", ".join(parts)
 
 
@@ -139,13 +140,19 @@ def _draw_point_forces(ax, result, rim: dict | None) -> None:
     forces (``per_line.end_forces``: a corner force of a saddle's horn) as a marker at the line's end."""
     points = (rim or {}).get("point_forces") or []
     ends = [q for line in (rim or {}).get("per_line") or [] for q in line.get("end_forces") or []]
+    samples = (rim or {}).get("samples") or []
+    # labels toward the zone's middle: an end force sits at the zone's corner, on the edge of the zoomed map
+    centre = (np.mean([q["x"] for q in samples]), np.mean([q["phi"] for q in samples])) if samples else None
     for marks, style, colour, name in ((points, "r*", "darkred", "point force"),
                                        (ends, "D", "darkorange", "line load's end force")):
         for j, pf in enumerate(marks):
             ax.plot(pf["x"], pf["phi"], style, color=colour, ms=13 if style == "r*" else 8, mec="k", mew=0.6,
-                    label=name if j == 0 else None)
-            ax.annotate(_q(result, pf["force"], "force"), (pf["x"], pf["phi"]), xytext=(8, 8),
+                    clip_on=False, label=name if j == 0 else None)  # an end force sits on the map's edge
+            sx, sy = ((1.0, 1.0) if centre is None else
+                      (1.0 if centre[0] >= pf["x"] else -1.0, 1.0 if centre[1] >= pf["phi"] else -1.0))
+            ax.annotate(_q(result, pf["force"], "force"), (pf["x"], pf["phi"]), xytext=(8 * sx, 8 * sy),
                         textcoords="offset points", fontsize=8, color=colour,
+                        ha="left" if sx > 0 else "right", va="bottom" if sy > 0 else "top",
                         bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": colour, "alpha": 0.85})
     if points or ends:
         _legend(ax)
