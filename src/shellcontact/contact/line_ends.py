@@ -61,6 +61,7 @@ def attach_end_forces(space: ShellSpace, entry: dict, polylines: list[np.ndarray
     entry["point_forces"] = kept
     entry["point_force"] = sum(q["force"] for q in kept)
 
+
 def _line_end(space: ShellSpace, q: dict, lines: list[tuple[int, np.ndarray]], a: float,
               period: float | None) -> tuple[int, float, float] | None:
     """The line (index) whose end the point force ``q`` is at, its position along that line (m from the line's
