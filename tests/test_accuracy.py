@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -239,6 +240,11 @@ def test_run_estimate_writes_accuracy_and_warns(tmp_path):
     assert f"probes.0.w {100 * entry['estimate']:.3g} % (at x = {at['x']:.4g}, phi = {at['phi']:.4g} deg)" in err
     html = (out / "report.html").read_text()
     assert "<h2>Accuracy</h2>" in html and "estimated relative error" in html
+    results = html.split("<h2>Results</h2>")[1].split("<h2>")[0]  # the estimate beside each headline number
+    assert "<th>estimated error</th>" in results
+    w = s["accuracy"]["max_abs_w"]["estimate"]
+    row = re.sub(r"<[^>]+>", "|", results.split("max deflection |w|")[1].split("</tr>")[0])
+    assert row.split("||")[:4] == ["", f"{s['max_abs_w']:.6g}", "m", f"{100 * w:.2g} % (above 1 %)"], row
 
 
 def test_the_console_shows_each_estimate_next_to_its_number(capsys):

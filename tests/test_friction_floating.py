@@ -246,9 +246,12 @@ def test_vessel_under_self_weight_is_held_by_friction(method):
     axial = abs(sliding["force"][0])
     assert axial > 1e3  # N: the friction really carries the sag's pull (6.6 kN measured)
     exact = method != "penalty"  # measured: cancel 1.4e-16 (Newton), 1.4e-12 (dual), 7.9e-7 (penalty); balance
-    # 3e-16, 1.1e-12, 2.8e-8; the gauge's axial force 6.4e-9, 5.0e-9, 5.2e-3 N
-    assert abs(fixed["force"][0] + sliding["force"][0]) <= (1e-11 if exact else 5e-6) * axial
-    assert abs(s["equilibrium"]["reactions"]["force"][0]) <= (1e-11 if exact else 5e-6) * axial
+    # 3e-16, 1.1e-12, 2.8e-8; the gauge's axial force 6.4e-9, 5.0e-9, 5.2e-3 N (on 21 × 24 elements; on the mirror
+    # mesh's 22 × 24 the dual's cancel and gauge force are 1.4e-11 and 9.9e-8 N: the dual meets the balance rows to
+    # its KKT tolerance, 1e-10)
+    cancel = {"active-set": 1e-11, "dual": 1e-10, "penalty": 5e-6}[method]
+    assert abs(fixed["force"][0] + sliding["force"][0]) <= cancel * axial
+    assert abs(s["equilibrium"]["reactions"]["force"][0]) <= cancel * axial  # the gauge: what the friction leaves
     sol = r.contact.solution
     assert sol.residuals["force_balance"] <= (1e-11 if exact else 2e-7)
     T = np.linalg.norm(sol.info["T"].reshape(-1, 2), axis=1)

@@ -252,14 +252,22 @@ def _headline(s: Mapping[str, Any]) -> str:
         return _Unit(label(kind, system))
 
     rows: list[list[Any]] = []
+    paths: dict[int, str] = {}  # a row's summary path: its estimated error (``run --estimate``) beside it
+
+    def mark(path: str) -> None:
+        paths[len(rows) - 1] = path
+
     contact = s.get("contact") or []
     for k, c in enumerate(contact):
         who = f"punch {k} ({c.get('shape', '')}): " if len(contact) > 1 else ""
         rows.append([f"{who}total normal force", c["total_normal_force"], u("force"), "Σ Λᵢ |∇Z|"])
+        mark(f"contact.{k}.total_normal_force")
         rows.append([f"{who}resultant force", c["force_magnitude"], u("force"), f"[Fx, Fy, Fz] = {fmt(c['force'])}"])
+        mark(f"contact.{k}.force_magnitude")
         control = {"indentation": "indentation control", "force": "force control (the travel is computed)",
                    "fixed": "fixed position"}
         rows.append([f"{who}punch travel", c["punch_travel"], u("length"), control.get(c.get("mode"), "")])
+        mark(f"contact.{k}.punch_travel")
         zone = c.get("zone")
         if isinstance(zone, Mapping):
             note = f"where the gap is below {with_unit(_g(zone['gap_tolerance']), 'length', system)}"
@@ -269,14 +277,16 @@ def _headline(s: Mapping[str, Any]) -> str:
             if zone.get("state") == "point":
                 note = "a point contact: the punch carries force, no sampled point is within the gap tolerance"
             rows.append([f"{who}contact zone area", zone["area"], u("area"), note])
+            mark(f"contact.{k}.zone.area")
         rim = c.get("rim")
         if isinstance(rim, Mapping):
             share = rim["force"] / c["total_normal_force"] if c["total_normal_force"] else 0.0
-            for pf in rim.get("point_forces", []):  # where the zone is a point (point_forces.py)
+            for j, pf in enumerate(rim.get("point_forces", [])):  # where the zone is a point (point_forces.py)
                 rows.append([f"{who}point force", pf["force"], u("force"),
                              f"at x = {with_unit(_g(pf['x']), 'length', system)}, φ = {_g(pf['phi'])}°: carrying "
                              "points within the elements round one vertex (a zone the mesh sees as a point: refine "
                              "to tell a point from a small area), left out of the line/interior split"])
+                mark(f"contact.{k}.rim.point_forces.{j}.force")
             if rim.get("kind") == "unresolved":  # carrying rows round which no zone is drawn (rim.py)
                 rows.append([f"{who}force at scattered points", rim["interior_force"], u("force"),
                              "carrying points that form neither a zone nor a point force on this mesh: its split "
@@ -288,11 +298,13 @@ def _headline(s: Mapping[str, Any]) -> str:
                              f", carrying {loads['force'] / c['total_normal_force']:.0%} of the normal force"
                              + (f", {with_unit(_g(loads['end_force']), 'force', system)} of it as end forces at "
                                 "the lines' ends: corner forces" if loads.get("end_force") else "") + ")"])
+                mark(f"contact.{k}.rim.line_loads.mean_line_force")
             if rim.get("force"):
                 rows.append([f"{who}rim line force (mean)", rim["mean_line_force"], u("force/length"),
                              f"along {with_unit(_g(rim['length']), 'length', system)} of rim, carrying "
                              f"{share:.0%} of the normal force; peak (mesh-dependent) "
                              f"{with_unit(_g(rim['peak_line_force']), 'force/length', system)}"])
+                mark(f"contact.{k}.rim.mean_line_force")
                 if rim.get("interior_area"):
                     rows.append([f"{who}interior force (mean pressure)", rim["mean_interior_pressure"], u("pressure"),
                                  f"{with_unit(_g(rim['interior_force']), 'force', system)} "
@@ -312,11 +324,13 @@ def _headline(s: Mapping[str, Any]) -> str:
         rows.append([f"{who}peak nodal pressure (mesh-dependent)", c["peak_pressure"], u("pressure"),
                      "the map's nodal pressure: exact on a uniform load, but grows like 1/h at a line force"])
     rows.append(["max deflection |w|", s["max_abs_w"], u("length"), ""])
+    mark("max_abs_w")
     st = s.get("stresses") or {}
     if st:
         name, worst = max(st.items(), key=lambda kv: kv[1]["von_mises_max"])
         at = f"{name} surface, x = {with_unit(fmt(worst['at']['x']), 'length', system)}, φ = {fmt(worst['at']['phi'])}°"
         rows.append(["max von Mises stress", worst["von_mises_max"], u("pressure"), at.strip()])
+        mark(f"stresses.{name}.von_mises_max")
         if "utilisation_max" in worst:
             util = max(v.get("utilisation_max", 0.0) for v in st.values())
             rows.append(["utilisation σ_v / yield", util, _Unit("–"), "beyond yield" if util > 1 else ""])
@@ -332,7 +346,21 @@ def _headline(s: Mapping[str, Any]) -> str:
         tol = s.get("tolerance")
         rows.append(["KKT residual (largest scaled)", scaled[worst_k], _Unit("–"),
                      f"{worst_k}; tolerance {fmt(tol)}" if tol is not None else worst_k])
-    return table(rows, ("quantity", "value", "unit", "where / note"), cls="headline")
+    head: tuple[str, ...] = ("quantity", "value", "unit", "where / note")
+    acc = s.get("accuracy") or {}
+    if acc:  # the estimate next to the number (the Accuracy section has every headline, with what to refine)
+        head = (*head[:3], "estimated error", head[3])
+        for i, row in enumerate(rows):
+            row.insert(3, _estimate(acc.get(paths.get(i, ""))))
+    return table(rows, head, cls="headline")
+
+
+def _estimate(entry: Mapping[str, Any] | None) -> str:
+    """An accuracy entry's estimated relative error as shown ("–" where none)."""
+    if not entry or entry.get("estimate") is None:
+        return "–"
+    e = float(entry["estimate"])
+    return f"{100 * e:.2g} %" + (" (above 1 %)" if e > 0.01 else "")
 
 
 def _accuracy(s: Mapping[str, Any]) -> str:
@@ -343,8 +371,7 @@ def _accuracy(s: Mapping[str, Any]) -> str:
     units, tol, levels = s.get("units", {}), ref.get("tolerance"), ref.get("levels", [])
     advised = any("refine" in e for e in acc.values())  # accuracy.refine_advice, for estimates above 1 %
     rows = [[path, e["value"], _Unit(units.get(f"accuracy.{path}.value", "–")),
-             "not estimated" if e["estimate"] is None else f"{100 * e['estimate']:.2g} %"
-             + (" (above 1 %)" if e["estimate"] > 0.01 else ""),
+             "not estimated" if e["estimate"] is None else _estimate(e),
              "1 (assumed)" if e["order"] is None else f"{e['order']:.2g}",
              *([] if tol is None else ["met" if e.get("met") else "not met"]),
              *([e.get("refine", "")] if advised else [])] for path, e in acc.items()]

@@ -74,9 +74,11 @@ def graded_nodes(
         elif c in focus and cuts[-1] not in focus and cuts[-1] != start:
             cuts[-1] = c
     cuts[-1] = stop
+    counts = [max(1, int(round(n * (hi - lo) / length))) for lo, hi in zip(cuts[:-1], cuts[1:])]
+    if len(counts) > 1 and _mirrored(cuts, focus, length):
+        counts = _mirror_counts(counts)
     nodes = [np.array([start])]
-    for lo, hi in zip(cuts[:-1], cuts[1:]):
-        k = max(1, int(round(n * (hi - lo) / length)))
+    for lo, hi, k in zip(cuts[:-1], cuts[1:], counts):
         t = np.linspace(0.0, 1.0, k + 1)
         near_lo = any(abs(lo - f) < 1e-12 * max(1.0, abs(length)) for f in focus)
         near_hi = any(abs(hi - f) < 1e-12 * max(1.0, abs(length)) for f in focus)
@@ -84,6 +86,25 @@ def graded_nodes(
             t = _graded_unit(k, ratio, near_lo, near_hi)
         nodes.append(lo + (hi - lo) * t[1:])
     return np.concatenate(nodes)
+
+
+def _mirrored(cuts: list[float], focus: Sequence[float], length: float) -> bool:
+    """The cuts (node lines and foci) are their own mirror image about the interval's middle."""
+    tol = 1e-9 * abs(length)
+    is_focus = [any(abs(c - f) < 1e-12 * max(1.0, abs(length)) for f in focus) for c in cuts]
+    return all(abs((c - cuts[0]) - (cuts[-1] - m)) <= tol and a == b
+               for c, m, a, b in zip(cuts, cuts[::-1], is_focus, is_focus[::-1]))
+
+
+def _mirror_counts(counts: list[int]) -> list[int]:
+    """Interval counts of mirrored cuts: equal in mirror segments (round-off in the segments' lengths could round
+    them apart), and an even total, since the "alternate" pattern's diagonals are their own mirror image only on
+    an even count (vessel_saddles' estimate meshes at nx = 40 and 20 had 39 and 21 columns: its mirror saddles'
+    estimates differed, 5.2 % and 0.45 % for the same zone area)."""
+    half, odd = divmod(len(counts), 2)
+    first = counts[:half]
+    middle = [counts[half] + counts[half] % 2] if odd else []
+    return first + middle + first[::-1]
 
 
 def _graded_unit(k: int, ratio: float, at_lo: bool, at_hi: bool) -> np.ndarray:
