@@ -180,3 +180,25 @@ def test_newton_alone_at_68k_unknowns(monkeypatch):
     difference = np.linalg.norm(np.subtract(alone["friction"]["force"], fixed["friction"]["force"]))
     assert difference < 1e-13 * scale  # measured 1.4e-14
     assert alone["total_normal_force"] == pytest.approx(fixed["total_normal_force"], rel=1e-13)  # measured 0
+
+
+def test_a_step_closes_its_rows_when_pairs_leave():
+    """One Newton step makes gap = 0 on the rows it closes (its equations are linear in (Λ, T) there), also where
+    pairs of the iterate leave the system: a start with T ≠ 0 on rows outside the closed set (the open rows of the
+    frictionless solution, as rows that opened in an earlier step carry it). Checked on a fresh solve for U
+    (G + B U). Before the step's offsets dropped the leaving pairs' B A⁻¹C_jᵀT_j, the closed rows' gaps were off by
+    that (8 × 8 panel: 1.5e-2 of the length scale here; at 68k unknowns 1e-6–3e-4 at most steps, the plateaus of
+    the law's residual at ≈ 2e-6 with any closed set, benchmarks/RESULTS.md "Branch coul15")."""
+    _, qp, op, top, C, c, fac = panel()
+    law = np.stack([0.3 * np.linalg.norm(op.grad, axis=0), np.zeros(qp.m)], axis=1)
+    free = solve_active_set(qp, factorization=fac)
+    open_rows = free.Lambda <= 0
+    T0 = np.zeros((qp.m, 2))
+    T0[open_rows] = 0.1 * free.Lambda.max()  # N: of the order of the friction bounds μΛ
+    step = solve_friction_newton(qp, C, c, law, factorization=fac, max_iterations=1,
+                                 initial=np.concatenate([free.Lambda, T0.ravel()]))
+    closed = step.Lambda != 0
+    assert closed.any() and np.all(step.info["T"].reshape(-1, 2)[open_rows & ~closed] == 0.0)
+    gap = qp.gap(step.U)
+    scale = float(np.abs(gap - qp.G).max())
+    assert float(np.abs(gap[closed]).max()) < 1e-14 * scale  # measured 1.0e-15 (before: 1.5e-2)

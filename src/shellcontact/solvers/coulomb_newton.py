@@ -122,10 +122,24 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         cp = np.array([ct[j] for j in pairs])
         b = g[pairs]
         Tp, sig = T.reshape(-1, 2)[pairs], sigma[pairs]
+        # pairs that left the system (their row opened) carry T_j ≠ 0 in the iterate and 0 after the step: their
+        # part of the gaps and slips leaves the offsets too (``_system`` removes only the system's own pairs'),
+        # else every closed row's gap after the step is off by B A⁻¹C_jᵀT_j (68k: 1e-6–3e-4 of the length
+        # scale, the residual's plateaus of ≈ 2e-6 at any closed set, benchmarks/RESULTS.md "Branch coul15")
+        # (the slip law stays linearised at the iterate's true slips)
+        gap0, sig0 = gap, sig
+        left = np.setdiff1d(np.flatnonzero(np.any(T.reshape(-1, 2) != 0.0, axis=1)), pairs)
+        if left.size:
+            missing = np.array([j for j in left if j not in cache["BX"]], dtype=int)
+            if missing.size:  # a start's T off its closed rows (else kept from when they were pairs)
+                _pair_products(qp, C, missing, ws, cache)
+            Tl = T.reshape(-1, 2)[left].ravel()
+            gap0 = gap - np.hstack([cache["BX"][j] for j in left]) @ Tl
+            sig0 = sig - (np.hstack([cache["CX"][j] for j in left]) @ Tl).reshape(-1, 2)[pairs]
         z, _ = _tangential_ncp(Tp, sig, b, cp)
         nz = np.linalg.norm(z, axis=1)
         slip = (nz >= b) & (nz > 0)
-        J, rhs = _system(ws, A, BXp, SPP, Lam, Tp, gap, sig)
+        J, rhs = _system(ws, A, BXp, SPP, Lam, Tp, gap0, sig0)
         k = A.size
         at = np.searchsorted(A, pairs)  # the column of Λ_j for pair j
         for j in np.flatnonzero(slip):  # slip rows: the linearised slip law with the bound's derivative
