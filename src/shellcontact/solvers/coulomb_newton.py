@@ -17,7 +17,8 @@ slip law |z|T − g z = 0 gets the column −a_j z_j at Λ_j (normal and tangent
 The case's Tresca (a = 0) has a bound that jumps with the closed set; where its law has no solution the sets
 cycle (docs/theory.md §9a). The Newton stops at the first revisit of a set without a smaller residual, after
 ``tresca_newton.PATIENCE`` iterations without progress, or at ``max_iterations``, and says so in
-``info["fallback"]`` (no dual finish here: the caller runs the fixed point of Tresca problems instead).
+``info["fallback"]``, returning its iterate of the smallest residual (no dual finish here: the caller runs the
+fixed point of Tresca problems from that iterate instead).
 """
 
 from __future__ import annotations
@@ -165,6 +166,7 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         return Lam_new, T_new
 
     state = measure(Lam, T)
+    best = (np.inf, Lam, T)  # the smallest residual's iterate
     falling = False  # the last step lowered the residual: the join limit grows with the closed set
     for it in range(1, max_iterations + 1):
         gap, sigma, g = state["gap"], state["sigma"], state["g"]
@@ -183,6 +185,8 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         history.append({"iteration": it, "closed": int(closed.sum()), "stick": int((~slip).sum()),
                         "slip": int(slip.sum()), "residual": resid, "normal": state["normal"],
                         "tangential": state["tangential"]})
+        if resid < best[0]:
+            best = (resid, Lam, T)
         if resid <= tol:
             break
         stop, fallback = watch.stop(key, resid)  # the same rule as the Tresca Newton
@@ -209,6 +213,10 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         falling = state["residual"] < resid
     else:
         fallback = "iterations"
+        if state["residual"] < best[0]:  # the last step's iterate, measured but not yet compared
+            best = (state["residual"], Lam, T)
+    if fallback is not None:  # the best iterate, the start of what follows (the fixed point, ``analysis.friction``)
+        resid, Lam, T = best
     U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
     gap = qp.gap(U)
     bounds = law_bounds(law, np.maximum(Lam, 0.0))  # at the solution ξ = Λ on the closed rows
@@ -218,5 +226,5 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         method="coulomb-active-set", history=history, energy=qp.energy(U),
         timings={"newton": time.perf_counter() - t0, "total": time.perf_counter() - t0},
         info={"T": T, "slip": C @ U - c, "bounds": bounds, "gap": gap, "fallback": fallback,
-              "residual": history[-1]["residual"] if history else 0.0})
+              "residual": resid if history else 0.0})
 
