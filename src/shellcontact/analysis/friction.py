@@ -55,8 +55,9 @@ POLISH_ITERATIONS = 6
 #: the whole-law Newton's iterations before the fixed point takes over: where it converges it takes 4–5 (8 × 8
 #: panel, μ ≤ 3), 10–12 (32 × 32, μ ≤ 1); where it does not, its sets wander (19 iterations before it stalled at
 #: 68k unknowns, μ = 0.3, each adding pairs to solve for: 22 of 48 s of the run, the fixed point that then
-#: converged 11 s); with the join limit growing with the closed set (``coulomb_newton.JOIN_SHARE``) it converges
-#: at 68k in 20 iterations on the border rows and 10 after outside rows joined (each call counts its own)
+#: converged 11 s); with the join limit growing with the closed set (``coulomb_newton.JOIN_SHARE``) and the step's
+#: offsets right where pairs leave (branch coul15) it converges at 68k in 6 (each call counts its own), at 211k
+#: it stops after 19 at 1e-7 (one edge row that pulls when closed) and the fixed point finishes
 NEWTON_ITERATIONS = 25
 
 
