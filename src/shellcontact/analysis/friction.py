@@ -250,7 +250,8 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
             if fallback is None:
                 return sol, CoulombRecord(0, [], None, True, newton=newton), top
             print(f"note: friction: the semismooth Newton on the friction law stopped ({fallback}) after "
-                  f"{sol.iterations} iterations; the fixed point of Tresca problems follows", file=sys.stderr)
+                  f"{sol.iterations} iterations; the fixed point of Tresca problems follows from its best iterate "
+                  f"(residual {sol.info['residual']:.2g})", file=sys.stderr)
             # the fixed point from the Newton's best iterate, not from the frictionless solution: at 211k unknowns
             # the Newton stops at 1.0e-7 on one edge row (benchmarks/RESULTS.md, "Branch coul15"), from where the
             # fixed point needs 4 iterations, from the frictionless solution it did not converge in 50
