@@ -57,7 +57,7 @@ POLISH_ITERATIONS = 6
 #: 68k unknowns, μ = 0.3, each adding pairs to solve for: 22 of 48 s of the run, the fixed point that then
 #: converged 11 s); with the join limit growing with the closed set (``coulomb_newton.JOIN_SHARE``) and the step's
 #: offsets right where pairs leave (branch coul15) it converges at 68k in 6 (each call counts its own), at 211k
-#: it stops after 19 at 1e-7 (one edge row that pulls when closed) and the fixed point finishes
+#: it stops after 19 at 1e-7 (one edge row that pulls when a step joins it) and the fixed point finishes
 NEWTON_ITERATIONS = 25
 
 
