@@ -64,11 +64,18 @@ def one(refine: int, variant: str, method: str, tresca_bound: float, fixed: bool
     return {"refine": refine, "variant": variant, "method": method, "unknowns": result.info["unknowns"],
             "rows": int(result.contact.Lambda.size), "wall_s": wall, "cpu_s": cpu,
             "solve_s": result.timings.get("solve", float("nan")),
-            "fixed_point_iterations": friction.get("fixed_point", {}).get("iterations", 0),
+            "fixed_point_iterations": _fixed_point_text(friction.get("fixed_point")),
             "newton": _newton_text(friction.get("fixed_point", {}).get("newton")),
             "iterations": int(result.contact.solution.iterations),
             "friction_force_N": friction.get("force", [0.0])[0], "normal_force_N": contact["total_normal_force"],
             "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def _fixed_point_text(record: dict | None) -> str:
+    """The fixed point's iterations in a table cell, and "(not converged)" where it did not converge."""
+    if record is None:
+        return "0"
+    return f"{record['iterations']}" + ("" if record["converged"] else " (not converged)")
 
 
 def _newton_text(record: dict | None) -> str:

@@ -55,8 +55,9 @@ POLISH_ITERATIONS = 6
 #: the whole-law Newton's iterations before the fixed point takes over: where it converges it takes 4–5 (8 × 8
 #: panel, μ ≤ 3), 10–12 (32 × 32, μ ≤ 1); where it does not, its sets wander (19 iterations before it stalled at
 #: 68k unknowns, μ = 0.3, each adding pairs to solve for: 22 of 48 s of the run, the fixed point that then
-#: converged 11 s); with the join limit growing with the closed set (``coulomb_newton.JOIN_SHARE``) it converges
-#: at 68k in 20 iterations on the border rows and 10 after outside rows joined (each call counts its own)
+#: converged 11 s); with the join limit growing with the closed set (``coulomb_newton.JOIN_SHARE``) and the step's
+#: offsets right where pairs leave (branch coul15) it converges at 68k in 6 (each call counts its own), at 211k
+#: it stops after 19 at 1e-7 (one edge row that pulls when a step joins it) and the fixed point finishes
 NEWTON_ITERATIONS = 25
 
 
@@ -249,7 +250,12 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
             if fallback is None:
                 return sol, CoulombRecord(0, [], None, True, newton=newton), top
             print(f"note: friction: the semismooth Newton on the friction law stopped ({fallback}) after "
-                  f"{sol.iterations} iterations; the fixed point of Tresca problems follows", file=sys.stderr)
+                  f"{sol.iterations} iterations; the fixed point of Tresca problems follows from its best iterate "
+                  f"(residual {sol.info['residual']:.2g})", file=sys.stderr)
+            # the fixed point from the Newton's best iterate, not from the frictionless solution: at 211k unknowns
+            # the Newton stops at 1.0e-7 on one edge row (benchmarks/RESULTS.md, "Branch coul15"), from where the
+            # fixed point needs 4 iterations, from the frictionless solution it did not converge in 50
+            start = sol
 
             def polish(s: ContactSolution) -> ContactSolution | None:
                 out, failed = _newton(qp, C, c, law, options, _warm_start(s), POLISH_ITERATIONS)

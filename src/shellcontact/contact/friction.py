@@ -197,7 +197,8 @@ def solve_coulomb(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndar
     ``solver_options``); ``warm(solution)`` gives the options that start the next solve from the last one. The
     contraction factor (geometric mean) is measured on the changes above 1000·fixed_point_tol (below, the
     solver's round-off decides).
-    ``start``: the frictionless solution, when the caller has it (then not solved again). ``accelerate``: the
+    ``start``: the frictionless solution, when the caller has it (then not solved again), or another start (the
+    whole-law Newton's best iterate: g^0 = bounds of its Λ). ``accelerate``: the
     next bounds by ``anderson_step`` of the last ``ANDERSON_DEPTH`` iterates (the plain iteration alternated and
     contracted by 0.72 only, 50 iterations without converging, Coulomb μ = 0.3 at 16.8k unknowns); the
     contraction is then that of the map G itself, the largest |G(g_k) − G(g_{k−1})|∞ / |g_k − g_{k−1}|∞ above the

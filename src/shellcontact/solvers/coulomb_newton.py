@@ -17,7 +17,8 @@ slip law |z|T − g z = 0 gets the column −a_j z_j at Λ_j (normal and tangent
 The case's Tresca (a = 0) has a bound that jumps with the closed set; where its law has no solution the sets
 cycle (docs/theory.md §9a). The Newton stops at the first revisit of a set without a smaller residual, after
 ``tresca_newton.PATIENCE`` iterations without progress, or at ``max_iterations``, and says so in
-``info["fallback"]`` (no dual finish here: the caller runs the fixed point of Tresca problems instead).
+``info["fallback"]``, returning its iterate of the smallest residual (no dual finish here: the caller runs the
+fixed point of Tresca problems from that iterate instead).
 """
 
 from __future__ import annotations
@@ -122,10 +123,24 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         cp = np.array([ct[j] for j in pairs])
         b = g[pairs]
         Tp, sig = T.reshape(-1, 2)[pairs], sigma[pairs]
+        # pairs that left the system (their row opened) carry T_j ≠ 0 in the iterate and 0 after the step: their
+        # part of the gaps and slips leaves the offsets too (``_system`` removes only the system's own pairs'),
+        # else every closed row's gap after the step is off by B A⁻¹C_jᵀT_j (68k: 1e-6–3e-4 of the length
+        # scale, the residual's plateaus of ≈ 2e-6 at any closed set, benchmarks/RESULTS.md "Branch coul15")
+        # (the slip law stays linearised at the iterate's true slips)
+        gap0, sig0 = gap, sig
+        left = np.setdiff1d(np.flatnonzero(np.any(T.reshape(-1, 2) != 0.0, axis=1)), pairs)
+        if left.size:
+            missing = np.array([j for j in left if j not in cache["BX"]], dtype=int)
+            if missing.size:  # a start's T off its closed rows (else kept from when they were pairs)
+                _pair_products(qp, C, missing, ws, cache)
+            Tl = T.reshape(-1, 2)[left].ravel()
+            gap0 = gap - np.hstack([cache["BX"][j] for j in left]) @ Tl
+            sig0 = sig - (np.hstack([cache["CX"][j] for j in left]) @ Tl).reshape(-1, 2)[pairs]
         z, _ = _tangential_ncp(Tp, sig, b, cp)
         nz = np.linalg.norm(z, axis=1)
         slip = (nz >= b) & (nz > 0)
-        J, rhs = _system(ws, A, BXp, SPP, Lam, Tp, gap, sig)
+        J, rhs = _system(ws, A, BXp, SPP, Lam, Tp, gap0, sig0)
         k = A.size
         at = np.searchsorted(A, pairs)  # the column of Λ_j for pair j
         for j in np.flatnonzero(slip):  # slip rows: the linearised slip law with the bound's derivative
@@ -151,6 +166,7 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         return Lam_new, T_new
 
     state = measure(Lam, T)
+    best = (np.inf, Lam, T)  # the smallest residual's iterate
     falling = False  # the last step lowered the residual: the join limit grows with the closed set
     for it in range(1, max_iterations + 1):
         gap, sigma, g = state["gap"], state["sigma"], state["g"]
@@ -169,6 +185,8 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         history.append({"iteration": it, "closed": int(closed.sum()), "stick": int((~slip).sum()),
                         "slip": int(slip.sum()), "residual": resid, "normal": state["normal"],
                         "tangential": state["tangential"]})
+        if resid < best[0]:
+            best = (resid, Lam, T)
         if resid <= tol:
             break
         stop, fallback = watch.stop(key, resid)  # the same rule as the Tresca Newton
@@ -195,6 +213,10 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         falling = state["residual"] < resid
     else:
         fallback = "iterations"
+        if state["residual"] < best[0]:  # the last step's iterate, measured but not yet compared
+            best = (state["residual"], Lam, T)
+    if fallback is not None:  # the best iterate, the start of what follows (the fixed point, ``analysis.friction``)
+        resid, Lam, T = best
     U = ws.solve(qp.F + qp.B.T @ Lam + C.T @ T)
     gap = qp.gap(U)
     bounds = law_bounds(law, np.maximum(Lam, 0.0))  # at the solution ξ = Λ on the closed rows
@@ -204,5 +226,5 @@ def solve_friction_newton(qp: ContactQP, C: sp.spmatrix, c: np.ndarray, law: np.
         method="coulomb-active-set", history=history, energy=qp.energy(U),
         timings={"newton": time.perf_counter() - t0, "total": time.perf_counter() - t0},
         info={"T": T, "slip": C @ U - c, "bounds": bounds, "gap": gap, "fallback": fallback,
-              "residual": history[-1]["residual"] if history else 0.0})
+              "residual": resid if history else 0.0})
 
