@@ -25,10 +25,14 @@ def solved(method: str = "dual", **punch):
     return solve(case_from_dict(panel(**punch)), method=method)
 
 
-@pytest.mark.parametrize("friction", [0.0, {"model": "coulomb", "coefficient": 0.0}])
-def test_zero_friction_is_bit_identical(friction):
-    base = solved()
-    r = solve(case_from_dict(panel(friction=friction)), method="dual")
+@pytest.mark.parametrize("method", ["dual", "active-set", "penalty"])
+@pytest.mark.parametrize("friction", [0.0, {"model": "coulomb", "coefficient": 0.0},
+                                      {"model": "tresca", "bound": 0.0}])
+def test_zero_friction_is_bit_identical(friction, method):
+    """Issue 26 item 4, for each of the three methods: zero friction (μ = 0 or a Tresca bound of 0 Pa) is the
+    frictionless case, its results equal to the last bit."""
+    base = solved(method)
+    r = solve(case_from_dict(panel(friction=friction)), method=method)
     assert np.array_equal(r.solution.U, base.solution.U)
     assert np.array_equal(r.contact.Lambda, base.contact.Lambda)
     a, b = r.summary(), base.summary()
