@@ -174,3 +174,25 @@ def test_a_straight_line_load_is_coloured_along_its_length() -> None:
     (lc,) = [c for c in ax.collections if isinstance(c, LineCollection)]
     colours = np.asarray(lc.get_array())
     assert colours.min() == 23364.0 and colours.max() == 30706.0 and lc.get_clim()[1] == 30706.0
+
+
+def test_point_force_markers_draw_without_a_warning() -> None:
+    """pressure.png's point-force star was drawn with the format "r*" and a colour, which matplotlib warns about on
+    stderr ("color is redundantly defined") on every run with a point force; the markers are now given as markers
+    alone, in the colours of the legend (the reference: matplotlib's own warning, turned into an error here)."""
+    import warnings
+    from types import SimpleNamespace
+
+    from matplotlib.figure import Figure
+
+    from shellcontact.outputs.figures.contact import _draw_point_forces
+
+    rim = {"point_forces": [{"force": 1.5e3, "x": 0.0, "phi": 90.0}],
+           "per_line": [{"end_forces": [{"force": 2.5e3, "x": 0.1, "phi": 80.0}]}],
+           "samples": [{"x": 0.05, "phi": 85.0}]}
+    ax = Figure().add_subplot()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _draw_point_forces(ax, SimpleNamespace(case=SimpleNamespace(units="SI")), rim)
+    drawn = {(line.get_marker(), line.get_color()) for line in ax.get_lines()}
+    assert drawn == {("*", "darkred"), ("D", "darkorange")}

@@ -143,11 +143,11 @@ def _draw_point_forces(ax, result, rim: dict | None) -> None:
     samples = (rim or {}).get("samples") or []
     # labels toward the zone's middle: an end force sits at the zone's corner, on the edge of the zoomed map
     centre = (np.mean([q["x"] for q in samples]), np.mean([q["phi"] for q in samples])) if samples else None
-    for marks, style, colour, name in ((points, "r*", "darkred", "point force"),
+    for marks, style, colour, name in ((points, "*", "darkred", "point force"),
                                        (ends, "D", "darkorange", "line load's end force")):
         for j, pf in enumerate(marks):
-            ax.plot(pf["x"], pf["phi"], style, color=colour, ms=13 if style == "r*" else 8, mec="k", mew=0.6,
-                    clip_on=False, label=name if j == 0 else None)  # an end force sits on the map's edge
+            ax.plot(pf["x"], pf["phi"], marker=style, ls="", color=colour, ms=13 if style == "*" else 8, mec="k",
+                    mew=0.6, clip_on=False, label=name if j == 0 else None)  # an end force sits on the map's edge
             sx, sy = ((1.0, 1.0) if centre is None else
                       (1.0 if centre[0] >= pf["x"] else -1.0, 1.0 if centre[1] >= pf["phi"] else -1.0))
             ax.annotate(_q(result, pf["force"], "force"), (pf["x"], pf["phi"]), xytext=(8 * sx, 8 * sy),
