@@ -70,7 +70,7 @@ def test_coulomb_summary_entry():
     assert f["stick_area"] == 0.0 and f["slip_area"] == pytest.approx(c["area"], rel=1e-12)
     assert 0.95 < f["force"][0] / (0.3 * c["total_normal_force"]) <= 1.0  # measured 0.984
     assert f["max_slip"] == pytest.approx(1e-3, rel=1.0)  # the slide less the shell's drag: 1.6 mm measured
-    assert f["fixed_point"]["converged"] and f["fixed_point"]["iterations"] <= 30  # measured 7
+    assert f["fixed_point"]["converged"] and f["fixed_point"]["iterations"] <= 30  # measured 5 (Anderson; 7 plain)
     base = solved().summary()["equilibrium"]["relative_residual"]
     # measured 4.3e-5 with friction, 4.5e-5 without (the interpolation error of the rigid motions)
     assert s["equilibrium"]["relative_residual"] < 10 * max(base, 1e-5)
