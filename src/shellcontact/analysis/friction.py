@@ -26,6 +26,7 @@ from ..contact.friction import (
     COULOMB_TOL,
     CoulombRecord,
     TangentialOperator,
+    probed_contraction,
     solve_coulomb,
     tangential_operator,
 )
@@ -247,8 +248,10 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
             sol, fallback = _newton(qp, C, c, law, options, _warm_start(start), NEWTON_ITERATIONS)
             newton = {"iterations": int(sol.iterations), "converged": fallback is None, "fallback": fallback,
                       "polish_iterations": []}
-            if fallback is None:
-                return sol, CoulombRecord(0, [], None, True, newton=newton), top
+            if fallback is None:  # no fixed point ran: its map's contraction, for the uniqueness warning, probed
+                newton["contraction_solves"] = 2
+                q = probed_contraction(qp, C, c, bounds, tresca, sol, warm, **options)
+                return sol, CoulombRecord(0, [], q, True, newton=newton), top
             print(f"note: friction: the semismooth Newton on the friction law stopped ({fallback}) after "
                   f"{sol.iterations} iterations; the fixed point of Tresca problems follows from its best iterate "
                   f"(residual {sol.info['residual']:.2g})", file=sys.stderr)
