@@ -97,3 +97,54 @@ def test_penalty_and_dual_agree_on_coulomb():
     scale = abs(d["friction"]["force"][0])
     assert np.allclose(p["friction"]["force"], d["friction"]["force"], rtol=0, atol=4e-5 * scale)
     assert p["total_normal_force"] == pytest.approx(d["total_normal_force"], rel=4e-5)
+
+
+@pytest.mark.parametrize("mu, warned", [(0.3, False), (5.0, True)])
+def test_newton_solution_gets_the_fixed_points_contraction_and_warning(mu, warned):
+    """Where the whole-law Newton (active-set) converged no fixed point ran; the map's contraction is probed at its
+    solution by two Tresca solves and compared with the dual's fixed point (Anderson's largest ratio |ΔG|/|Δg|) on
+    the same case: the same warning and q within a factor 2 (measured active-set/dual 0.0807/0.0688 = 1.17 at
+    μ = 0.3, 2.335/1.745 = 1.34 at μ = 5; 0.53/0.45 at μ = 3, unwarned)."""
+    fps = {m: solved(m, friction=mu, slide=(1e-3, 0.0, 0.0)).summary() for m in ("active-set", "dual")}
+    newton, dual = (s["contact"][0]["friction"]["fixed_point"] for s in (fps["active-set"], fps["dual"]))
+    assert newton["iterations"] == 0 and newton["newton"]["converged"] and newton["newton"]["contraction_solves"] == 2
+    assert dual["iterations"] > 0 and dual["acceleration"] == "anderson"
+    assert 0.5 < newton["contraction"] / dual["contraction"] < 2.0
+    assert (newton["contraction"] > 0.9) is warned
+    for s in fps.values():
+        assert ("friction_contraction" in [w["code"] for w in s["warnings"]]) is warned
+
+
+def test_probed_contraction_does_not_depend_on_the_probes_size(monkeypatch):
+    """The probes are small enough for G's derivative (the slip law's directions bend it: q drifts by O(size)) and
+    above round-off: 1e-2 and 1e-6 of the bounds give the default 1e-4's q (μ = 5; measured 2.34999, 2.33506
+    against 2.33521: 6.3e-3 and 6.2e-5 relative; at 1e-8 round-off shows, 5.6e-5 at μ = 0.3)."""
+    from shellcontact.contact import friction
+
+    def q(size: float) -> float:
+        monkeypatch.setattr(friction, "PROBE_SIZE", size)
+        s = solve(case_from_dict(panel(friction=5.0, slide=(1e-3, 0.0, 0.0))), method="active-set").summary()
+        return s["contact"][0]["friction"]["fixed_point"]["contraction"]
+
+    base = q(1e-4)
+    assert q(1e-2) == pytest.approx(base, rel=3e-2)
+    assert q(1e-6) == pytest.approx(base, rel=3e-4)
+
+
+def test_one_fixed_point_iteration_then_polish_still_measures_the_contraction(monkeypatch):
+    """The whole-law Newton held to 3 steps at μ = 5: the fixed point runs one iteration and its polish converges,
+    which gives no ratio of the map (before: q 0, no warning); the contraction is then probed at the solution:
+    warned, within a factor 2 of the dual's fixed point (measured 2.3352 against 1.745) and equal to the
+    Newton-alone run's q (measured 1.2e-10 relative: the same solution)."""
+    from shellcontact.analysis import friction
+
+    monkeypatch.setattr(friction, "NEWTON_ITERATIONS", 3)
+    s = solve(case_from_dict(panel(friction=5.0, slide=(1e-3, 0.0, 0.0))), method="active-set").summary()
+    fp = s["contact"][0]["friction"]["fixed_point"]
+    assert fp["iterations"] == 1 and fp["newton"]["polish_iterations"] and fp["newton"]["contraction_solves"] == 2
+    assert "friction_contraction" in [w["code"] for w in s["warnings"]]
+    dual = solved("dual", friction=5.0, slide=(1e-3, 0.0, 0.0)).summary()["contact"][0]["friction"]["fixed_point"]
+    assert 0.5 < fp["contraction"] / dual["contraction"] < 2.0
+    monkeypatch.setattr(friction, "NEWTON_ITERATIONS", 25)
+    alone = solved("active-set", friction=5.0, slide=(1e-3, 0.0, 0.0)).summary()["contact"][0]["friction"]
+    assert fp["contraction"] == pytest.approx(alone["fixed_point"]["contraction"], rel=1e-6)

@@ -26,6 +26,7 @@ from ..contact.friction import (
     COULOMB_TOL,
     CoulombRecord,
     TangentialOperator,
+    probed_contraction,
     solve_coulomb,
     tangential_operator,
 )
@@ -247,8 +248,10 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
             sol, fallback = _newton(qp, C, c, law, options, _warm_start(start), NEWTON_ITERATIONS)
             newton = {"iterations": int(sol.iterations), "converged": fallback is None, "fallback": fallback,
                       "polish_iterations": []}
-            if fallback is None:
-                return sol, CoulombRecord(0, [], None, True, newton=newton), top
+            if fallback is None:  # no fixed point ran: its map's contraction, for the uniqueness warning, probed
+                newton["contraction_solves"] = 2
+                q = probed_contraction(qp, C, c, bounds, tresca, sol, warm, **options)
+                return sol, CoulombRecord(0, [], q, True, newton=newton), top
             print(f"note: friction: the semismooth Newton on the friction law stopped ({fallback}) after "
                   f"{sol.iterations} iterations; the fixed point of Tresca problems follows from its best iterate "
                   f"(residual {sol.info['residual']:.2g})", file=sys.stderr)
@@ -280,6 +283,12 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
             start = _frictionless_start(qp, C, c, E, tresca, options)
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, start=start,
                                 accelerate=bool(np.any(mu > 0)), polish=polish, **options)  # Coulomb: Anderson's mixing
+    if record.acceleration == "anderson" and record.converged and record.iterations < 2:  # no ratio of the map
+        # measured (one iteration, then a polish or the tolerance: 8 × 8, μ = 5, the Newton held to 3 steps gave
+        # q 0 and no warning): probed at the solution as where the Newton converged alone
+        record.contraction = probed_contraction(qp, C, c, bounds, tresca, sol, warm, **options)
+        if newton is not None:
+            newton["contraction_solves"] = 2
     record.newton = newton
     return sol, record, top
 
