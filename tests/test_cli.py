@@ -230,6 +230,9 @@ def test_demo(tmp_path: Path) -> None:
         assert m in r.stdout
         s = json.loads((tmp_path / "demo-out" / m / "summary.json").read_text())
         assert s["contact"][0]["force_magnitude"] > 0 and (tmp_path / "demo-out" / m / "fields.vtu").is_file()
+        # the table's force is the one the report calls "resultant force", with one value everywhere
+        assert f"{s['contact'][0]['force_magnitude']:.6e}" in r.stdout
+    assert "resultant force [N]" in r.stdout
     assert (tmp_path / "demo-out" / "active-set" / "report.html").is_file()
 
 
