@@ -237,7 +237,8 @@ def test_run_estimate_writes_accuracy_and_warns(tmp_path):
                for w in s["warnings"])
     assert "estimated discretisation error above 1 %" in err
     at = s["probes"][0]
-    assert f"probes.0.w {100 * entry['estimate']:.3g} % (at x = {at['x']:.4g}, phi = {at['phi']:.4g} deg)" in err
+    place = f"(at x = {at['x']:.4g} {s['units']['probes.x']}, phi = {at['phi']:.4g} deg)"  # x with its unit
+    assert f"probes.0.w {100 * entry['estimate']:.3g} % {place}" in err, err
     html = (out / "report.html").read_text()
     assert "<h2>Accuracy</h2>" in html and "estimated relative error" in html
     results = html.split("<h2>Results</h2>")[1].split("<h2>")[0]  # the estimate beside each headline number
@@ -262,6 +263,24 @@ def test_the_console_shows_each_estimate_next_to_its_number(capsys):
     for text in ("max|w| 0.5 m (±1.2 %)", "w=-0.5 m (±1.2 %)", "force 3 N (±0.4 %)", "zone area 2 m² (±30 %)",
                  "max von Mises 7 Pa (top"):
         assert text in out, (text, out)
+
+
+@pytest.mark.parametrize("system, length, pressure", [("SI", "m", "Pa"), ("mm", "mm", "MPa")])
+def test_the_console_accuracy_table_gives_each_value_its_unit(system, length, pressure):
+    """Each line of ``run --estimate``'s table carries its quantity's unit in the case's unit system (a length
+    in m or mm, a stress in Pa or MPa), as summary.json's ``units`` map does; a count would stay bare."""
+    from types import SimpleNamespace
+
+    result = SimpleNamespace(case=SimpleNamespace(units=system))
+    entries = {"max_abs_w": {"value": 0.331745, "estimate": 0.0016, "order": 3.4},
+               "probes.0.displacement.1": {"value": -0.158214, "estimate": 0.00078, "order": 3.4},
+               "stresses.top.von_mises_max": {"value": 283372.0, "estimate": 0.002, "order": None}}
+    est = accuracy.Estimate(result=result, accuracy=entries, levels=[{"dofs": 4712, "seconds": 0.86}])
+    lines = accuracy.describe(est)
+    assert re.search(rf"max_abs_w\s+0\.331745 {length}\s+± 0\.16 % \(observed order 3\.4\)", lines[1]), lines
+    assert re.search(rf"probes\.0\.displacement\.1\s+-0\.158214 {length}\s+± 0\.078 %", lines[2]), lines
+    assert re.search(rf"stresses\.top\.von_mises_max\s+283372 {pressure}\s+± 0\.2 % \(order 1 assumed\)",
+                     lines[3]), lines
 
 
 def test_run_accuracy_stops_at_the_level_limit_and_strict_exits_1(tmp_path):

@@ -184,6 +184,10 @@ def test_convergence(tmp_path: Path) -> None:
     report = (tmp_path / "cv" / "report.html").read_text()
     assert all(f">{row['energy']:.6g}<" in report for row in rows) and "data:image/png;base64," in report
     assert "err energy" in r.stdout and f"{rows[2]['energy']:.6g}" in r.stdout
+    units = json.loads((tmp_path / "cv" / "convergence.json").read_text())["summaries"][0]["units"]
+    head = next(line for line in r.stdout.splitlines() if line.lstrip().startswith("level"))
+    for title in ("h [m]", f"energy [{units['energy']}]", f"probe0_w [{units['probes.w']}]"):  # as summary.json
+        assert title in head, (title, head)
 
 
 def test_info(tmp_path: Path) -> None:
@@ -226,6 +230,9 @@ def test_demo(tmp_path: Path) -> None:
         assert m in r.stdout
         s = json.loads((tmp_path / "demo-out" / m / "summary.json").read_text())
         assert s["contact"][0]["force_magnitude"] > 0 and (tmp_path / "demo-out" / m / "fields.vtu").is_file()
+        # the table's force is the one the report calls "resultant force", with one value everywhere
+        assert f"{s['contact'][0]['force_magnitude']:.6e}" in r.stdout
+    assert "resultant force [N]" in r.stdout
     assert (tmp_path / "demo-out" / "active-set" / "report.html").is_file()
 
 

@@ -118,6 +118,10 @@ def test_penalty_warnings_in_summary_and_on_stderr(tmp_path: Path, capsys) -> No
     warnings = summary["warnings"]
     assert any(w["code"] == "penalty_accuracy" and w["message"].startswith("solver.penalty") for w in warnings)
     assert any(w["code"] == "kkt_residual" and "penetration" in w["message"] for w in warnings)
+    # the scaled penetration the tolerance judges, then the one summary.json's kkt (and the demo's table) give, in m
+    pen = (f"penetration {summary['kkt_scaled']['penetration']:.2e} "
+           f"(= {summary['kkt']['penetration']:.2e} {summary['units']['kkt.penetration']})")
+    assert any(pen in w["message"] for w in warnings), (pen, warnings)
     err = capsys.readouterr().err
     assert "solver.penalty" in err and "KKT" in err
     # an exact method at its tolerance: no KKT warning

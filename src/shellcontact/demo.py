@@ -56,7 +56,7 @@ def _row(method: str, result: Result, seconds: float) -> dict:
 #: the comparison table: key, title, kind of quantity (its unit comes from the case's system), format
 COLUMNS = (
     ("method", "method", None, "{}"),
-    ("force", "force", "force", "{:.6e}"),
+    ("force", "resultant force", "force", "{:.6e}"),  # the report's "resultant force", not its total normal force
     ("zone_area", "zone area", "area", "{:.4e}"),
     ("active_vertices", "active", None, "{}"),
     ("line_force", "rim line force", "force/length", "{:.4e}"),

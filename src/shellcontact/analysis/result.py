@@ -22,7 +22,7 @@ from ..problem.case import Case
 from ..shell.spaces import ShellSpace
 from ..shell.supports import edge_constrained_dofs
 from ..solvers import ContactSolution
-from ..units import summary_units, with_unit
+from ..units import kind_of, summary_units, with_unit
 from .discretization import Discretization
 from .validity import ResultWarning, case_warnings, equilibrium_warnings, floating_warnings, record
 
@@ -30,6 +30,15 @@ log = logging.getLogger("shellcontact")
 
 
 KKT_KEYS = ("stationarity", "penetration", "dual_feasibility", "complementarity", "duality_gap")
+
+
+def _unscaled(key: str, residuals: dict[str, Any], system: str) -> str:
+    """' (= 1.01e-07 m)': a dimensioned KKT residual as summary.json's ``kkt`` (and the demo's table) give it."""
+    try:
+        kind = kind_of(f"kkt.{key}")
+    except KeyError:  # a residual the units map does not classify: its scaled value alone
+        return ""
+    return f" (= {with_unit(f'{residuals[key]:.2e}', kind, system)})" if kind and key in residuals else ""
 
 
 @dataclass
@@ -259,7 +268,7 @@ class Result:
         scaled = cs.info.get("scaled_residuals", {})
         above = {k: v for k, v in scaled.items() if tol is not None and v > tol}
         if above:
-            what = ", ".join(f"{k} {v:.2e}" for k, v in above.items())
+            what = ", ".join(f"{k} {v:.2e}{_unscaled(k, cs.residuals, self.case.units)}" for k, v in above.items())
             why = (" (the penalty solution satisfies the contact conditions only to O(ε); the tolerance "
                    "applies to its penalised equation)" if cs.method == "penalty" else "")
             out.append(ResultWarning("kkt_residual", f"KKT: scaled residuals above the tolerance {tol:g}: {what}{why}"))

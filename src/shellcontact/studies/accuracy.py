@@ -34,6 +34,7 @@ from typing import Any
 from ..analysis.validity import ResultWarning, record
 from ..errors import InputError, ShellContactError
 from ..inputs.arguments import expect_callable, expect_integer
+from ..units import kind_of, with_unit
 from .refine_advice import advice
 
 #: the headline quantities by summary path (``*``: every list index or key), each with the numbers its relative
@@ -389,8 +390,18 @@ def run_mode(case, estimate_only: bool, tolerance: float | None, strict: bool, m
     return functools.partial(refine_to, tolerance=tolerance, max_levels=max_levels)
 
 
+def _valued(path: str, value: float, system: str) -> str:
+    """A headline's value with the unit of its quantity (as summary.json's ``units`` gives it)."""
+    try:
+        kind = kind_of(f"accuracy.{path}.value")
+    except KeyError:  # a headline nobody classified: shown bare, as in the units map
+        kind = None
+    return with_unit(f"{value:.6g}", kind, system) if kind else f"{value:.6g}"
+
+
 def describe(est: Estimate) -> list[str]:
     """Console lines: the meshes solved and the headlines with their estimates."""
+    system = est.result.case.units
     meshes = ", ".join(f"{lv['dofs']} dofs ({lv['seconds']:.2f} s)" for lv in est.levels)
     lines = [f"accuracy: from {len(est.levels)} meshes, finest first: {meshes}"]
     for path, e in est.accuracy.items():
@@ -398,7 +409,7 @@ def describe(est: Estimate) -> list[str]:
         how = "not estimated" if v is None else f"{100 * v:.2g} %" + (
             f" (observed order {e['order']:.2g})" if e["order"] is not None else " (order 1 assumed)")
         met = "" if est.tolerance is None or v is None else (" met" if v <= est.tolerance else " NOT met")
-        lines.append(f"  {path:<34} {e['value']:<13.6g} ± {how}{met}")
+        lines.append(f"  {path:<34} {_valued(path, e['value'], system):<16} ± {how}{met}")
     if est.tolerance is not None:
         lines.append(f"tolerance {est.tolerance:g}: " + ("met by every headline" if est.met else est.stopped or ""))
     return lines

@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from ..units import with_unit
+
 NEAR = 2.0  # a place this many local element sizes from an edge or a point load is "at" it
 ANISOTROPY = 2.0  # elements across a place: one direction this many times fewer is the one to refine
 
@@ -53,6 +55,11 @@ def _get(data: Any, *keys: str) -> Any:
     return data
 
 
+def _length(x: float, summary: Mapping[str, Any]) -> str:
+    """``x`` with the length unit of the summary's unit system."""
+    return with_unit(f"{x:.4g}", "length", summary.get("unit_system", "SI"))
+
+
 def _place(summary: Mapping[str, Any], path: str) -> tuple[str, tuple[float, float, float, float] | None]:
     """(the place in words, its box (x0, x1, φ0, φ1 in degrees) or None) of headline ``path``."""
     parts = path.split(".")
@@ -60,7 +67,7 @@ def _place(summary: Mapping[str, Any], path: str) -> tuple[str, tuple[float, flo
         zone = _get(summary, "contact", parts[1], "zone") or {}
         x, phi = zone.get("x"), zone.get("phi")
         if isinstance(x, list) and isinstance(phi, list) and len(x) == 2 and len(phi) == 2:
-            return (f"punch {parts[1]}'s contact zone, x {x[0]:.4g} to {x[1]:.4g}, phi {phi[0]:.4g} to "
+            return (f"punch {parts[1]}'s contact zone, x {x[0]:.4g} to {_length(x[1], summary)}, phi {phi[0]:.4g} to "
                     f"{phi[1]:.4g} deg", (x[0], x[1], phi[0], phi[1]))
         return f"punch {parts[1]}'s contact zone", None
     at = None
@@ -70,7 +77,7 @@ def _place(summary: Mapping[str, Any], path: str) -> tuple[str, tuple[float, flo
         at = _get(summary, "probes", parts[1])
     if isinstance(at, Mapping) and isinstance(at.get("x"), (int, float)) and isinstance(at.get("phi"), (int, float)):
         x, phi = float(at["x"]), float(at["phi"])
-        return f"at x = {x:.4g}, phi = {phi:.4g} deg", (x, x, phi, phi)
+        return f"at x = {_length(x, summary)}, phi = {phi:.4g} deg", (x, x, phi, phi)
     return "", None
 
 

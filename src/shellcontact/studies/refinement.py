@@ -189,8 +189,10 @@ def _check_finest(case: Case, refine: int, max_memory: float | str | None) -> No
 
 
 def convergence_table(res: ConvergenceResult) -> str:
-    """A fixed-width text table of a convergence study."""
+    """A fixed-width text table of a convergence study: h, energy and the tracked value with their units (the
+    errors are relative, the rates orders)."""
     q = res.quantity
-    head = ("level", "dofs", "h", "energy", q, "err energy", "rate", f"err {q}", "rate")
+    unit = _heads(res.rows, (), res.summaries)
+    head = ("level", "dofs", unit["h"], unit["energy"], unit.get(q, q), "err energy", "rate", f"err {q}", "rate")
     keys = ("level", "dofs", "h", "energy", q, "error_energy", "rate_energy", f"error_{q}", f"rate_{q}")
     return text_table(head, [[r[k] for k in keys] for r in res.rows])
