@@ -148,3 +148,17 @@ def test_one_fixed_point_iteration_then_polish_still_measures_the_contraction(mo
     monkeypatch.setattr(friction, "NEWTON_ITERATIONS", 25)
     alone = solved("active-set", friction=5.0, slide=(1e-3, 0.0, 0.0)).summary()["contact"][0]["friction"]
     assert fp["contraction"] == pytest.approx(alone["fixed_point"]["contraction"], rel=1e-6)
+
+
+def test_the_contraction_warning_reaches_stderr_once(tmp_path):
+    """A run's warnings are logged once each from its summary (``result._check_summary``); the friction module
+    printed its own as well, so `run` showed the contraction warning twice."""
+    from pathlib import Path
+
+    from inprocess import run_cli
+
+    case = Path(__file__).resolve().parents[1] / "examples" / "panel_pushed_sideways.toml"
+    code, err = run_cli(["run", str(case), "--set", "punch.0.friction=5", "--set", "mesh.nx=8", "--set",
+                         "mesh.nphi=8", "--no-figures", "--no-report", "-q", "-o", str(tmp_path / "out")])
+    assert code == 0, err
+    assert err.count("the fixed point of the friction bounds on the normal forces") == 1, err

@@ -430,19 +430,17 @@ def attach_friction(result: Any, friction: dict) -> None:
         text = (f"friction: the fixed point of the friction bounds did not converge in steps {unconverged} of the "
                 "load path; the slip carried from them is not a solution's")
         result.info.setdefault("warnings", []).append(ResultWarning("friction_contraction", text))
-        print(f"warning: {text}", file=sys.stderr)
     if record.cycle:
         text = ("friction: the contact set alternates between sets that each, with the Tresca bound on its rows, "
                 "close different rows: the Tresca law on the contact set has no solution among them (the bound "
                 "exceeds what the contact pressure can hold without lifting the shell; docs/theory.md §9a) and "
                 "this result is not one; lower the Tresca bound or the slide, or use Coulomb friction")
         result.info.setdefault("warnings", []).append(ResultWarning("friction_no_solution", text))
-        print(f"warning: {text}", file=sys.stderr)
     elif not record.converged or (record.contraction is not None and record.contraction > COULOMB_CONTRACTION):
         state = (f"did not converge in {record.iterations} iterations" if not record.converged
-                 else f"contracts only by {record.contraction:.3g} per iteration (> {COULOMB_CONTRACTION})")
+                 else f"has the contraction factor {record.contraction:.3g} (above {COULOMB_CONTRACTION})")
+        which = "of which this result is one" if record.converged else "and this result is none of them"
         text = (f"friction: the fixed point of the friction bounds on the normal forces {state}: the static friction "
-                "problem may have several solutions, and this result is not one of them unless it converged; lower "
-                "the friction coefficient or the Tresca bound, or the slide")
+                f"problem may have several solutions, {which}; lower the friction coefficient or the Tresca bound, or "
+                "the slide")
         result.info.setdefault("warnings", []).append(ResultWarning("friction_contraction", text))
-        print(f"warning: {text}", file=sys.stderr)
