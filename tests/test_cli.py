@@ -234,6 +234,10 @@ def test_demo(tmp_path: Path) -> None:
         assert f"{s['contact'][0]['force_magnitude']:.6e}" in r.stdout
     assert "resultant force [N]" in r.stdout
     assert (tmp_path / "demo-out" / "active-set" / "report.html").is_file()
+    # one case, three methods: each warning of the case once on stderr (the deflection's was shown 3 times), counted
+    shown = [line for line in r.stderr.splitlines() if line.startswith("warning: ")]
+    assert shown and len(shown) == len(set(shown)), r.stderr
+    assert f"; {len(shown)} warning{'s' * (len(shown) != 1)} above" in r.stdout
 
 
 def test_warnings_reach_stderr_the_closing_line_and_the_top_of_the_report(tmp_path: Path) -> None:
