@@ -210,9 +210,7 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
     surface: list[np.ndarray] = []  # the given surface of those rows: the frictionless solution's contact set
 
     def bounds(Lam: np.ndarray) -> np.ndarray:
-        if not surface:  # the first call is on the frictionless solution (``solve_coulomb``'s g⁰)
-            surface.append(Lam > 0)
-        on = np.where(given, surface[0], Lam > 0)
+        on = np.where(given, surface[0], Lam > 0) if surface else Lam > 0
         return mu * scale * np.maximum(Lam, 0.0) + np.where(on, tresca_g, 0.0)
 
     E = _slip_columns(d, qp, top)
@@ -281,6 +279,10 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
         tresca = _held(tresca, qp, E, d, case)
         if start is None and held:  # the frictionless start without the motions only friction holds (amounts 0)
             start = _frictionless_start(qp, C, c, E, tresca, options)
+    if given.any():  # the given surface, from the frictionless solution (the fixed point's start, as it solves it)
+        if start is None:
+            start = tresca(qp, C, c, np.zeros(qp.m), **options)
+        surface.append(start.Lambda > 0)
     sol, record = solve_coulomb(qp, C, c, bounds, tresca, fixed_point_tol=fixed_tol, warm=warm, start=start,
                                 accelerate=bool(np.any(mu > 0)), polish=polish, **options)  # Coulomb: Anderson's mixing
     if record.acceleration == "anderson" and record.converged and record.iterations < 2:  # no ratio of the map
