@@ -123,3 +123,6 @@ def test_the_demo_table_fits_100_characters_on_the_console() -> None:
     for title in table.splitlines()[0].strip("| ").split(" | "):
         assert title.strip() in console
     assert console.count("| active-set |") == console.count("|     method |") >= 2
+    titles = [t.strip() for t in table.splitlines()[0].strip("| ").split(" | ")]
+    counts = {"method", "active", "iter"}  # names and counts; every other column says its unit, [–] if none
+    assert all(t.endswith("]") for t in titles if t not in counts), titles

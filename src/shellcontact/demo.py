@@ -54,7 +54,8 @@ def _row(method: str, result: Result, seconds: float) -> dict:
     }
 
 
-#: the comparison table: key, title, kind of quantity (its unit comes from the case's system), format
+#: the comparison table: key, title, kind of quantity (its unit comes from the case's system; [–]: dimensionless,
+#: as summary.json's ``units`` has these residuals), format
 COLUMNS = (
     ("method", "method", None, "{}"),
     ("force", "resultant force", "force", "{:.6e}"),  # the report's "resultant force", not its total normal force
@@ -62,10 +63,10 @@ COLUMNS = (
     ("active_vertices", "active", None, "{}"),
     ("line_force", "rim line force", "force/length", "{:.4e}"),
     ("max_deflection", "max|w|", "length", "{:.6e}"),
-    ("stationarity", "stationarity", None, "{:.1e}"),
+    ("stationarity", "stationarity [–]", None, "{:.1e}"),
     ("penetration", "penetration", "length", "{:.1e}"),
-    ("complementarity", "complement.", None, "{:.1e}"),
-    ("duality_gap", "duality gap", None, "{:.1e}"),
+    ("complementarity", "complement. [–]", None, "{:.1e}"),
+    ("duality_gap", "duality gap [–]", None, "{:.1e}"),
     ("iterations", "iter", None, "{}"),
     ("seconds", "time", "time", "{:.2f}"),
 )
