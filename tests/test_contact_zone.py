@@ -3,6 +3,8 @@ the punch's travel, sampled at quadrature points, against the weights of the act
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -111,3 +113,20 @@ def test_field_derivatives_of_some_quantities_equal_those_of_all():
     assert set(some) == {"v", "w_x", "u_s"}
     for k, v in some.items():
         np.testing.assert_allclose(v, every[k], rtol=1e-14, atol=1e-14 * np.abs(every[k]).max())
+
+
+def test_a_punch_that_carries_nothing_has_no_zone():
+    """The paper's sphere placed on the panel (indentation 0): it touches the crown at zero load, and its
+    nearest constraint point's cell read as a zone of 5.6e-6 m², more than at 0.5 mm (4.9e-6 m²): with no force
+    the zone is "none", area 0, no extents; at 0.5 mm it is an area."""
+    import tomllib
+
+    from shellcontact.problem.case import case_from_dict
+
+    d = tomllib.loads(Path(demo_case_path()).read_text())
+    d["mesh"].update(nx=8, nphi=8)
+    for indentation, state in ((0.0, "none"), (5e-4, "area")):
+        d["punch"][0]["indentation"] = indentation
+        z = sc.solve(case_from_dict(d)).summary()["contact"][0]["zone"]
+        assert z["state"] == state, (indentation, z)
+        assert (z["area"] == 0.0 and "x" not in z) if state == "none" else z["area"] > 0
