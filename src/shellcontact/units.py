@@ -102,6 +102,15 @@ def kind_of(path: str) -> str | None:
     raise KeyError(path)
 
 
+def unit_kind(path: str) -> str | None:
+    """The kind of the summary key ``path`` where it has a dimension; None where it has none or nobody classified it
+    (``kind_of`` tells the two apart)."""
+    try:
+        return kind_of(path)
+    except KeyError:
+        return None
+
+
 def numeric_paths(data: Any, prefix: str = "") -> list[str]:
     """Dotted paths of the numeric leaves of a JSON-like value (list items share their list's path)."""
     if isinstance(data, Mapping):
@@ -120,10 +129,7 @@ def summary_units(summary: Mapping[str, Any], system: str = DEFAULT) -> dict[str
     """
     out = {}
     for path in numeric_paths({k: v for k, v in summary.items() if k not in ("units", "unit_system")}):
-        try:
-            kind = kind_of(path)
-        except KeyError:  # a key nobody classified is left out (tests/test_units.py keeps the list complete)
-            continue
+        kind = unit_kind(path)  # a key nobody classified is left out (tests/test_units.py keeps the list complete)
         if kind is not None:
             out[path] = SYSTEMS[system][kind]
     return out

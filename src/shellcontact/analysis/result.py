@@ -22,7 +22,7 @@ from ..problem.case import Case
 from ..shell.spaces import ShellSpace
 from ..shell.supports import edge_constrained_dofs
 from ..solvers import ContactSolution
-from ..units import kind_of, summary_units, with_unit
+from ..units import summary_units, unit_kind, with_unit
 from .discretization import Discretization
 from .validity import ResultWarning, case_warnings, equilibrium_warnings, floating_warnings, record
 
@@ -34,10 +34,7 @@ KKT_KEYS = ("stationarity", "penetration", "dual_feasibility", "complementarity"
 
 def _unscaled(key: str, residuals: dict[str, Any], system: str) -> str:
     """' (= 1.01e-07 m)': a dimensioned KKT residual as summary.json's ``kkt`` (and the demo's table) give it."""
-    try:
-        kind = kind_of(f"kkt.{key}")
-    except KeyError:  # a residual the units map does not classify: its scaled value alone
-        return ""
+    kind = unit_kind(f"kkt.{key}")  # dimensionless or unclassified: its scaled value alone
     return f" (= {with_unit(f'{residuals[key]:.2e}', kind, system)})" if kind and key in residuals else ""
 
 

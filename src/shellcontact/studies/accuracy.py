@@ -34,7 +34,7 @@ from typing import Any
 from ..analysis.validity import ResultWarning, record
 from ..errors import InputError, ShellContactError
 from ..inputs.arguments import expect_callable, expect_integer
-from ..units import kind_of, with_unit
+from ..units import unit_kind, with_unit
 from .refine_advice import advice
 
 #: the headline quantities by summary path (``*``: every list index or key), each with the numbers its relative
@@ -392,10 +392,7 @@ def run_mode(case, estimate_only: bool, tolerance: float | None, strict: bool, m
 
 def _valued(path: str, value: float, system: str) -> str:
     """A headline's value with the unit of its quantity (as summary.json's ``units`` gives it)."""
-    try:
-        kind = kind_of(f"accuracy.{path}.value")
-    except KeyError:  # a headline nobody classified: shown bare, as in the units map
-        kind = None
+    kind = unit_kind(f"accuracy.{path}.value")  # none or nobody classified it: shown bare, as in the units map
     return with_unit(f"{value:.6g}", kind, system) if kind else f"{value:.6g}"
 
 
