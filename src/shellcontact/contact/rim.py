@@ -138,9 +138,9 @@ def _point_forces(space: ShellSpace, lines: list[np.ndarray], x: np.ndarray, phi
     sh = space.mesh.shell
     box = (sh.x_min, sh.x_max, sh.s_min, sh.s_min if sh.full else sh.s_max)
     # a cluster inside a thin strip of outline is on a line (a saddle's horn only two elements wide), not a point
-    areas = [enclosed_area([ln]) for ln in lines]
-    wide = [ln for ln, area in zip(lines, areas) if area is None or perimeter_of(ln) ** 2 < 32.0 * area]
-    strips = [ln for ln, area in zip(lines, areas) if area is not None and perimeter_of(ln) ** 2 >= 32.0 * area]
+    thin = [(area := enclosed_area([ln])) is not None and perimeter_of(ln) ** 2 >= 32.0 * area for ln in lines]
+    wide = [ln for ln, strip in zip(lines, thin) if not strip]
+    strips = [ln for ln, strip in zip(lines, thin) if strip]
     clusters = point_force_clusters(pts, force[carrying], width, wide, space.mesh.p, space.mesh.t, box, strips)
     points = describe(space.mesh.shell, pts, force[carrying], clusters)
     for g in clusters:

@@ -80,18 +80,22 @@ def graded_nodes(
     nodes = [np.array([start])]
     for lo, hi, k in zip(cuts[:-1], cuts[1:], counts):
         t = np.linspace(0.0, 1.0, k + 1)
-        near_lo = any(abs(lo - f) < 1e-12 * max(1.0, abs(length)) for f in focus)
-        near_hi = any(abs(hi - f) < 1e-12 * max(1.0, abs(length)) for f in focus)
+        near_lo, near_hi = _at_focus(lo, focus, length), _at_focus(hi, focus, length)
         if ratio > 1.0 and (near_lo or near_hi) and k >= 2:
             t = _graded_unit(k, ratio, near_lo, near_hi)
         nodes.append(lo + (hi - lo) * t[1:])
     return np.concatenate(nodes)
 
 
+def _at_focus(c: float, focus: Sequence[float], length: float) -> bool:
+    """The node ``c`` is one of the grading foci (to round-off of the interval's ``length``)."""
+    return any(abs(c - f) < 1e-12 * max(1.0, abs(length)) for f in focus)
+
+
 def _mirrored(cuts: list[float], focus: Sequence[float], length: float) -> bool:
     """The cuts (node lines and foci) are their own mirror image about the interval's middle."""
     tol = 1e-9 * abs(length)
-    is_focus = [any(abs(c - f) < 1e-12 * max(1.0, abs(length)) for f in focus) for c in cuts]
+    is_focus = [_at_focus(c, focus, length) for c in cuts]
     return all(abs((c - cuts[0]) - (cuts[-1] - m)) <= tol and a == b
                for c, m, a, b in zip(cuts, cuts[::-1], is_focus, is_focus[::-1]))
 
