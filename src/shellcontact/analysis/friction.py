@@ -24,6 +24,7 @@ from ..contact.floating import friction_columns
 from ..contact.friction import (
     COULOMB_CONTRACTION,
     COULOMB_TOL,
+    PROBE_SOLVES,
     CoulombRecord,
     TangentialOperator,
     probed_contraction,
@@ -220,6 +221,11 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
     def warm(sol: ContactSolution) -> dict:
         return {"initial": _warm_start(sol)}
 
+    def probe(sol: ContactSolution) -> float:  # the fixed-point map's contraction at a solution of the whole law
+        if newton is not None:
+            newton["contraction_solves"] = PROBE_SOLVES
+        return probed_contraction(qp, C, c, bounds, tresca, sol, warm, **options)
+
     if opts.method == "active-set":
         # the pipeline's factorisation solves A whether or not it is bordered by the screened rows
         options: dict[str, Any] = {"factorization": setup.factorization, "tol": opts.tolerance, "cache": {}}
@@ -247,9 +253,7 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
             newton = {"iterations": int(sol.iterations), "converged": fallback is None, "fallback": fallback,
                       "polish_iterations": []}
             if fallback is None:  # no fixed point ran: its map's contraction, for the uniqueness warning, probed
-                newton["contraction_solves"] = 2
-                q = probed_contraction(qp, C, c, bounds, tresca, sol, warm, **options)
-                return sol, CoulombRecord(0, [], q, True, newton=newton), top
+                return sol, CoulombRecord(0, [], probe(sol), True, newton=newton), top
             print(f"note: friction: the semismooth Newton on the friction law stopped ({fallback}) after "
                   f"{sol.iterations} iterations; the fixed point of Tresca problems follows from its best iterate "
                   f"(residual {sol.info['residual']:.2g})", file=sys.stderr)
@@ -288,9 +292,7 @@ def _solve_step(case: Case, d: Any, setup: Any, qp: Any, opts: SolverOptions, ca
     if record.acceleration == "anderson" and record.converged and record.iterations < 2:  # no ratio of the map
         # measured (one iteration, then a polish or the tolerance: 8 × 8, μ = 5, the Newton held to 3 steps gave
         # q 0 and no warning): probed at the solution as where the Newton converged alone
-        record.contraction = probed_contraction(qp, C, c, bounds, tresca, sol, warm, **options)
-        if newton is not None:
-            newton["contraction_solves"] = 2
+        record.contraction = probe(sol)
     record.newton = newton
     return sol, record, top
 

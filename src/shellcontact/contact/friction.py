@@ -263,6 +263,7 @@ def _contraction(changes: list[float], gs: list[np.ndarray], Gs: list[np.ndarray
 #: the probes' relative size: the ratios agree to 3 digits for 1e-2 … 1e-6 of the largest bound, every probe
 #: keeping the closed set (8 × 8 panel, 1 mm slide, μ = 0.3 and 5)
 PROBE_SIZE = 1e-4
+PROBE_SOLVES = 2  # ``probed_contraction``'s Tresca solves: its two probe directions
 
 
 def probed_contraction(qp, C: sp.csr_matrix, c: np.ndarray, bounds: Callable[[np.ndarray], np.ndarray],
